@@ -1834,6 +1834,35 @@ def _distinct_fields(m: np.ndarray) -> np.ndarray:
     return np.column_stack([np.bincount(inv, weights=m[:, k]) for k in range(3)]) / count[:, None]
 
 
+def _sphere_fit(m: np.ndarray, axes: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """(b, r², relative spread of |m − b|) of the sphere |m − b|² = r² fitted to the rows ``m`` (n, 3) with b along
+    the columns of ``axes`` (3, k) only: linear once centred, 2 (m − m̄)·b = |m|² − mean |m|²."""
+    mc = m - m.mean(axis=0)
+    y = np.einsum("ij,ij->i", m, m)
+    b = axes @ np.linalg.lstsq(2.0 * mc @ axes, y - y.mean(), rcond=None)[0]
+    r2 = float(np.mean(np.einsum("ij,ij->i", m - b, m - b)))
+    return b, r2, float(np.std(_norm(m - b)) / np.sqrt(r2))
+
+
+def sphere_offset(mag: np.ndarray) -> tuple[np.ndarray, float, float, float] | None:
+    """(b, r, the norm's relative spread, that of |m − b|) where the sphere fitted along all three axes explains a field norm that varies with the orientation
+    as :func:`hard_iron` requires (spread over :data:`MAG_SPREAD`, halved and within :data:`MAG_STEADY`, b over
+    :data:`MAG_OFFSET` of the radius r), though an axis the field turns about too little for :func:`hard_iron`
+    leaves b uncertain along it: evidence of an offset, not a value to subtract (BROAD 07's fast rotation, its last
+    40-80 s, with (25, -15, 35) µT: 24-35 % down to 1.6-1.9 %, b within 1 µT; as recorded 1.6-2.0 %). None
+    otherwise. ``mag`` (n, 3), NaN rows left out."""
+    m = mag[np.all(np.isfinite(mag), axis=1)]
+    if m.shape[0] < 100:
+        return None
+    n0 = _norm(m)
+    s0 = float(np.std(n0) / np.median(n0))
+    if s0 <= MAG_SPREAD:
+        return None
+    b, r2, s1 = _sphere_fit(m, np.eye(3))
+    ok = s1 < s0 / 2 and s1 <= MAG_STEADY and np.linalg.norm(b) > MAG_OFFSET * np.sqrt(r2)
+    return (b, float(np.sqrt(r2)), s0, s1) if ok else None
+
+
 def _hard_iron_rows(m: np.ndarray) -> tuple[np.ndarray, float, float] | None:
     """:func:`hard_iron` of the finite rows ``m``, each row one sample."""
     if m.shape[0] < 100:
@@ -1842,28 +1871,20 @@ def _hard_iron_rows(m: np.ndarray) -> tuple[np.ndarray, float, float] | None:
     s0 = float(np.std(n0) / np.median(n0))
     if s0 <= MAG_SPREAD:
         return None
-    # |m − b|² = r² is linear in b once centred: 2 (m − m̄)·b = |m|² − mean |m|²
-    mc = m - m.mean(axis=0)
-    y = np.einsum("ij,ij->i", m, m)
     spread, V = _field_spread(m)
-
-    def fit(seen):
-        b = seen @ np.linalg.lstsq(2.0 * mc @ seen, y - y.mean(), rcond=None)[0]
-        r2 = float(np.mean(np.einsum("ij,ij->i", m - b, m - b)))
-        return b, r2, float(np.std(_norm(m - b)) / np.sqrt(r2))
-
     seen = spread > MAG_SEEN_SPREAD
-    b, r2, s1 = fit(V[:, seen] if seen.any() else V)
+    b, r2, s1 = _sphere_fit(m, V[:, seen] if seen.any() else V)
     # the spreads are of |m|, which the offset inflates: an axis turned about by less than MAG_SEEN_SPREAD of |m|
     # may be turned about by more of the field itself (BROAD 07 with +30 µT on x and 5 % soft iron: 14.7 % of |m|,
     # 18 % of the field; the offset fitted without it left the norm's 12 % spread unexplained, nothing was said and
     # the heading was 52° off with exit 0; with (100, -80, 60) µT no axis was seen: 119°). Such an axis joins when
     # the fit with it leaves the norm as steady as a calibrated field's (a wrong offset along an axis that turns
     # little would not: see _iframe._hf_solve)
-    r2_all = r2 if seen.all() else fit(V)[1]  # a fit along fewer axes leaves the offset along the others in r
+    # a fit along fewer axes leaves the offset along the others in r
+    r2_all = r2 if seen.all() else _sphere_fit(m, V)[1]
     more = spread * float(np.median(_norm(m))) / np.sqrt(r2_all) > MAG_SEEN_SPREAD
     if (more & ~seen).any():
-        got = fit(V[:, more])
+        got = _sphere_fit(m, V[:, more])
         if got[2] <= MAG_SPREAD:
             b, r2, s1 = got
             seen = more
@@ -3002,21 +3023,28 @@ def _carried(fields, h: float, k: int, b: np.ndarray, field: float, at_end: bool
 
 def offset_unseen_error(
     pieces: list[tuple[int, np.ndarray | None, float]],
-    moving: tuple[int, int, np.ndarray, float, float] | None,
-    rows: int,
+    bins: np.ndarray,
+    sums: np.ndarray,
     h: float,
-    fields: tuple[np.ndarray, np.ndarray, np.ndarray],
+    rows: int,
+    mag: np.ndarray,
     offline: bool = False,
 ) -> OptinavError | None:
     """The refusal of a field, no offset subtracted, that turns about one point off zero wherever it is judged and
-    about zero nowhere: the windows of :func:`offset_pieces` (``pieces``, ``rows`` samples and ``h`` s a bin) all
-    about it, or, with none judged, the steps in which the body turns (:func:`moving_offset`, ``moving``), and the
-    estimate takes that field for the Earth's at its start (offline at its end too: :func:`_carried`). An
+    about zero nowhere: the windows of :func:`offset_pieces` (``pieces`` of ``bins``, ``sums`` of
+    :func:`field_rate_sums`, ``rows`` samples and ``h`` s a bin) all about it, or, with none judged, the steps in
+    which the body turns (:func:`moving_offset`), or, with neither, the norm of the rows ``mag`` (n, 3)
+    (:func:`sphere_offset`), and the estimate takes that field for the Earth's at its start (offline at its end
+    too: :func:`_carried`). An
     uncalibrated magnetometer in a log that turns it too little for the whole log's fits: BROAD's last 40 s with
     (25, -15, 35) µT ran at 78-94° heading RMSE with exit 0. None otherwise (a window about zero shows the Earth's
     field; a magnet put on in the rest before the motion leaves the start's reference clean: BROAD 33 from 20 s)."""
     if any(b is None for _, b, _ in pieces):
         return None
+    # each fit only where the one before it shows nothing (a window about zero, the usual case, needs neither)
+    moving = moving_offset(bins, sums, h)
+    sphere = sphere_offset(mag) if moving is None and not pieces else None
+    fields = bin_fields(bins, sums)
     if pieces:
         field = float(np.median([f for _, _, f in pieces]))
         if moving is not None and np.linalg.norm(moving[2] - pieces[0][1]) <= MAG_PIECE_APART * field:
@@ -3025,15 +3053,30 @@ def offset_unseen_error(
             (k0, b, _), k1, explained = pieces[0], pieces[-1][0] + max(1, int(round(MAG_PIECE_S / h))), None
     elif moving is not None:
         k0, k1, b, field, explained = moving
+    elif sphere is not None:
+        b, field, explained = *sphere[:2], None
+        turning = fields[0][_norm(fields[2]) >= STILL_RATE]
+        if not turning.size:
+            return None
+        k0, k1 = int(turning[0]), int(turning[-1]) + 1
     else:
         return None
     if not _carried(fields, h, k0, b, field, False) or (offline and not _carried(fields, h, k1 - 1, b, field, True)):
         return None
-    share = "" if explained is None else f" (that offset explains {explained:.0%} of what the gyro leaves of it)"
+    if pieces or moving is not None:
+        share = "" if explained is None else f" (that offset explains {explained:.0%} of what the gyro leaves of it)"
+        seen = (
+            f"the magnetic field turns in the body about [{_vec(b)}] (its unit), not about zero, wherever the body "
+            f"turns from sample {k0 * rows} ({k0 * h:.1f} s){share}"
+        )
+    else:
+        seen = (
+            f"the magnetometer's field norm varies by {sphere[2]:.0%} (std/median) with the orientation, and an offset "
+            f"of about [{_vec(b)}] (its unit) explains it down to {sphere[3]:.1%}"
+        )
     return OptinavError(
-        f"the magnetic field turns in the body about [{_vec(b)}] (its unit), not about zero, wherever the body "
-        f"turns from sample {k0 * rows} ({k0 * h:.1f} s){share}: an uncalibrated (hard-iron) magnetometer, and the "
-        "recording turns it too little for the offset to be fitted; the heading would be off by up to tens of degrees",
+        f"{seen}: an uncalibrated (hard-iron) magnetometer, and the recording turns it too little (or too fast) for "
+        "the offset to be fitted; the heading would be off by up to tens of degrees",
         "give --mag-hard-iron=BX,BY,BZ from a calibration that turns the sensor every way (mag_hard_iron= in "
         "Python), a calibrated magnetometer, or drop --mag",
     )

@@ -54,7 +54,6 @@ from optinav.attitude.checks import (
     end_tail,
     end_up,
     mag_sums,
-    moving_offset,
     zero_rows_missing,
     bin_fields,
     offset_change_error,
@@ -685,15 +684,15 @@ def estimate(
             i = end_tail(n, step)  # the specific force over the last second (as streamed)
             end_bins, end_acc, _, end_count, _ = mag_sums(acc[i:], mag[i:], i)
             up = end_up(end_bins, end_acc, end_count, step)
-            pieces, fields = offset_pieces(turns[0], less, turns[2]), bin_fields(turns[0], less)
-            err = offset_change_error(pieces, rows, turns[2], checked, offline, fields, up)
+            pieces = offset_pieces(turns[0], less, turns[2])
+            err = offset_change_error(pieces, rows, turns[2], checked, offline, bin_fields(turns[0], less), up)
             if err is None and mag_hard_iron is not None:  # subtracted from every row: it must be there at each
                 err = offset_held_error(*turns[:2], turns[2], rows, mag_hard_iron, offline)
             if err is not None:
                 raise err
             unseen = None
             if checked is None and not online_fit:  # no offset taken out: the field must turn about zero
-                unseen = offset_unseen_error(pieces, moving_offset(*turns), rows, turns[2], fields, offline)
+                unseen = offset_unseen_error(pieces, *turns, rows, mag[:: mag_fit_stride(mag.shape[0])], offline)
             # the field the estimate uses: less the offset it subtracts. Before an offset the field turns about is
             # refused: a mirrored frame or a magnetometer in other axes turns it about a point off zero too
             check_mag_axes(acc, mag if checked is None else mag - checked, step, gyr)

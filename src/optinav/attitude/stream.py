@@ -274,8 +274,10 @@ class StreamChecks:
             if self._mag_sums:  # the specific force over the last second (as estimate() takes it)
                 m_bins, m_acc, _, m_count, _ = (np.concatenate(x) for x in zip(*self._mag_sums))
                 up = _c.end_up(m_bins, m_acc, m_count, self.median_dt)
-            pieces, fields = _c.offset_pieces(bins, sums, h), _c.bin_fields(bins, sums)
-            err = _c.offset_change_error(pieces, self._scale_rows, h, offset, self.offline, fields, up)
+            pieces = _c.offset_pieces(bins, sums, h)
+            err = _c.offset_change_error(
+                pieces, self._scale_rows, h, offset, self.offline, _c.bin_fields(bins, sums), up
+            )
             # subtracted from every row (given, or fitted offline): it must be there at each
             subtracted = given if given is not None else self.fitted_hard_iron if self.offline else None
             if err is None and subtracted is not None:
@@ -284,7 +286,7 @@ class StreamChecks:
                 raise err
             if offset is None:  # no offset taken out: the field must turn about zero (raised after the axes check)
                 unseen = _c.offset_unseen_error(
-                    pieces, _c.moving_offset(bins, sums, h), self._scale_rows, h, fields, self.offline
+                    pieces, bins, sums, h, self._scale_rows, np.concatenate(self._mag), self.offline
                 )
         if self._mag_sums:  # in the order of check_mag_axes, on the field less the offset the estimate subtracts
             sums = [np.concatenate(x) for x in zip(*self._mag_sums)]
