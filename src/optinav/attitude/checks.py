@@ -1844,6 +1844,16 @@ def _sphere_fit(m: np.ndarray, axes: np.ndarray) -> tuple[np.ndarray, float, flo
     return b, r2, float(np.std(_norm(m - b)) / np.sqrt(r2))
 
 
+def _norm_varies(m: np.ndarray) -> float | None:
+    """The relative spread of the norm of the rows ``m`` (n, 3) where it is over :data:`MAG_SPREAD` (a field that
+    varies with the orientation: evidence of an offset); None below it or with under 100 rows."""
+    if m.shape[0] < 100:
+        return None
+    n0 = _norm(m)
+    s0 = float(np.std(n0) / np.median(n0))
+    return s0 if s0 > MAG_SPREAD else None
+
+
 def sphere_offset(mag: np.ndarray) -> tuple[np.ndarray, float, float, float] | None:
     """(b, r, the norm's relative spread, that of |m − b|) where the sphere fitted along all three axes explains a field norm that varies with the orientation
     as :func:`hard_iron` requires (spread over :data:`MAG_SPREAD`, halved and within :data:`MAG_STEADY`, b over
@@ -1852,11 +1862,8 @@ def sphere_offset(mag: np.ndarray) -> tuple[np.ndarray, float, float, float] | N
     40-80 s, with (25, -15, 35) µT: 24-35 % down to 1.6-1.9 %, b within 1 µT; as recorded 1.6-2.0 %). None
     otherwise. ``mag`` (n, 3), NaN rows left out."""
     m = mag[np.all(np.isfinite(mag), axis=1)]
-    if m.shape[0] < 100:
-        return None
-    n0 = _norm(m)
-    s0 = float(np.std(n0) / np.median(n0))
-    if s0 <= MAG_SPREAD:
+    s0 = _norm_varies(m)
+    if s0 is None:
         return None
     b, r2, s1 = _sphere_fit(m, np.eye(3))
     ok = s1 < s0 / 2 and s1 <= MAG_STEADY and np.linalg.norm(b) > MAG_OFFSET * np.sqrt(r2)
@@ -1865,11 +1872,8 @@ def sphere_offset(mag: np.ndarray) -> tuple[np.ndarray, float, float, float] | N
 
 def _hard_iron_rows(m: np.ndarray) -> tuple[np.ndarray, float, float] | None:
     """:func:`hard_iron` of the finite rows ``m``, each row one sample."""
-    if m.shape[0] < 100:
-        return None
-    n0 = _norm(m)
-    s0 = float(np.std(n0) / np.median(n0))
-    if s0 <= MAG_SPREAD:
+    s0 = _norm_varies(m)
+    if s0 is None:
         return None
     spread, V = _field_spread(m)
     seen = spread > MAG_SEEN_SPREAD
