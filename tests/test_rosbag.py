@@ -486,8 +486,8 @@ def _with_chunk_crcs(mcap: Path) -> list[tuple[int, int]]:
 
 
 def test_mcap_chunks_with_a_crc_are_checked_and_decoded_whole(tmp_path, monkeypatch):
-    """MCAP chunks that carry a CRC-32 (the mcap library's and CLI's default) are checked by zlib in the thread
-    that walks them and decoded by the whole-topic decoder (were read through the blocks); a byte changed in a
+    """MCAP chunks that carry a CRC-32 (the mcap library's and CLI's default) are checked (bagscan.crc32) in the
+    thread that walks them and decoded by the whole-topic decoder (were read through the blocks); a byte changed in a
     chunk's records fails its CRC: declined, then refused as rosbags refuses it."""
     from optinav.io import bagscan
 
@@ -512,6 +512,31 @@ def test_mcap_chunks_with_a_crc_are_checked_and_decoded_whole(tmp_path, monkeypa
     assert calls[1:2] == [False]
     assert isinstance(ref, OptinavError) and isinstance(ours, OptinavError)
     assert "checksum" in str(ref)
+
+
+def test_crc32_is_zlibs_by_either_library(tmp_path, monkeypatch):
+    """bagscan.crc32 (libdeflate's where the system has it, zlib's otherwise) gives zlib's CRC-32 of bytes, a numpy
+    array and a slice of a file map at odd offsets and lengths (the mcap chunk check compares it with the
+    CRC the writer stored, computed by zlib's definition)."""
+    import mmap
+    import zlib
+
+    from optinav.io import bagscan
+
+    data = np.random.default_rng(41).integers(0, 256, 1_000_003, dtype=np.uint8)
+    f = tmp_path / "d.bin"
+    f.write_bytes(data.tobytes())
+    with open(f, "rb") as fh:
+        mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
+    u8 = np.frombuffer(mm, dtype=np.uint8)
+    cases = [(0, 0), (0, 1), (3, 17), (5, 4096 + 3), (101, 1_000_003), (0, 1_000_003)]
+    for lib in (bagscan._libdeflate_crc32(), None):
+        monkeypatch.setattr(bagscan, "_libdeflate_crc32", lambda lib=lib: lib)
+        for a, b in cases:
+            want = zlib.crc32(data[a:b].tobytes())
+            assert bagscan.crc32(u8[a:b]) == want and bagscan.crc32(data[a:b].tobytes()) == want, (lib, a, b)
+    del u8
+    mm.close()
 
 
 def test_mcap_summary_contradicting_a_chunk_is_refused(tmp_path, capsys):

@@ -211,6 +211,33 @@ def _libzstd():
     return ctypes.CFUNCTYPE(sz, sz, sz, sz, sz, sz)(ctypes.cast(decompress, ctypes.c_void_p).value), create, free
 
 
+def crc32(buf) -> int:
+    """The CRC-32 (ISO-HDLC, zlib's) of the bytes ``buf`` (a contiguous buffer: bytes, a numpy uint8 array, a map's
+    slice): by libdeflate's ``libdeflate_crc32`` when the system has it (carry-less multiplication: 13-14 GB/s
+    on this machine, where zlib 1.2.13's table method gives 4.2 GB/s — an mcap bag's chunk CRCs cost a third of
+    its read), else by :func:`zlib.crc32`. Both release the GIL."""
+    fn = _libdeflate_crc32()
+    if fn is None:
+        return zlib.crc32(buf)
+    a = np.frombuffer(buf, dtype=np.uint8)
+    return fn(0, a.ctypes.data, a.size) if a.size else 0
+
+
+@functools.cache
+def _libdeflate_crc32():
+    """``libdeflate_crc32(crc u32, buffer, size) -> u32`` of the system's libdeflate as a ctypes function (ctypes
+    releases the GIL for the call), or None without one."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        fn = ctypes.CDLL(ctypes.util.find_library("deflate") or "libdeflate.so.0").libdeflate_crc32
+    except (OSError, AttributeError):
+        return None
+    fn.restype, fn.argtypes = ctypes.c_uint32, [ctypes.c_uint32, ctypes.c_void_p, ctypes.c_size_t]
+    return fn
+
+
 def zstd_module():
     """The standard library's zstd (Python ≥ 3.14) or its backport (rosbags' own dependency before)."""
     try:
@@ -389,7 +416,7 @@ def mcap_decode(path: Path, topic: str, layout, out: tuple) -> bool:
                 expect[i] += n // 16
         if int(expect.sum()) != stamp.size or np.any(np.diff(pos) <= 0):
             return False
-        # chunks that carry a CRC-32 (the mcap library's default; rosbag2 turns it off): checked by zlib, which
+        # chunks that carry a CRC-32 (the mcap library's default; rosbag2 turns it off): checked (crc32), which
         # releases the GIL, in the thread that then walks them
         crcs = _mcap_crcs(fh.fileno(), pos)
     if crcs is None:
@@ -403,7 +430,7 @@ def mcap_decode(path: Path, topic: str, layout, out: tuple) -> bool:
     scratch = [tuple(np.empty(int(expect.max()) + 1, dtype=np.int64) for _ in range(3)) for _ in range(2)]
     # the layout from the first chunk's first message (the chunk walked, nothing gathered into no rows: ROOM)
     no = np.zeros(7, dtype=np.int64)
-    if checked and not _crcs_match(mm, crcs[:1]):
+    if checked and not _crcs_match(u8, crcs[:1]):
         return False
     status, *_ = kern.mcap_decode(u8, pos[:1], chans, *scratch[0], no, stamp[:0], va[:0], vb[:0], logt[:0], 0, checked)
     if status != kern.ROOM:
@@ -417,7 +444,7 @@ def mcap_decode(path: Path, topic: str, layout, out: tuple) -> bool:
         # rows row0[a]:row0[b], no more: the kernel stops with ROOM past them; a chunk with a CRC is checked
         # right before it is walked (its bytes then in cache)
         for c, d in ((i, i + 1) for i in range(a, b)) if checked else ((a, b),):
-            if checked and not _crcs_match(mm, crcs[c:d]):
+            if checked and not _crcs_match(u8, crcs[c:d]):
                 return False
             lim = slice(0, row0[d])
             got = kern.mcap_decode(
@@ -449,13 +476,9 @@ def _mcap_crcs(fd: int, pos: np.ndarray) -> np.ndarray | None:
     return out
 
 
-def _crcs_match(mm, rows: np.ndarray) -> bool:
-    """Whether each chunk's records (start, end, CRC; 0: none) have their CRC-32."""
-    view = memoryview(mm)
-    try:
-        return all(not c or zlib.crc32(view[a:b]) == c for a, b, c in rows.tolist())
-    finally:
-        view.release()
+def _crcs_match(u8: np.ndarray, rows: np.ndarray) -> bool:
+    """Whether each chunk's records ``u8[start:end]`` (rows: start, end, CRC; 0: none) have their CRC-32."""
+    return all(not c or crc32(u8[a:b]) == c for a, b, c in rows.tolist())
 
 
 def _mcap_head(mm, start: int, n: int) -> tuple:
@@ -487,7 +510,7 @@ def _mcap_work(entry) -> bytes | None:
     if kind in ("", "none"):
         return None
     buf = _decompress(kind, data)
-    if len(buf) != usize or (crc and zlib.crc32(buf) != crc):
+    if len(buf) != usize or (crc and crc32(buf) != crc):
         raise NotFast("chunk size or CRC mismatch")
     return buf
 
@@ -498,7 +521,7 @@ def _mcap_chunk(mm, u8: np.ndarray, item: tuple, buf: bytes | None, topic: str, 
     kind, data, usize, crc, span = item
     if buf is None:
         raw = u8[data[0] : data[1]]
-        if raw.size != usize or (crc and zlib.crc32(raw) != crc):
+        if raw.size != usize or (crc and crc32(raw) != crc):
             raise NotFast("chunk size or CRC mismatch")
         out = _mcap_records(mm, u8, data[0], data[1], topic, chans, rows, False, span)
     else:
