@@ -245,9 +245,31 @@ def _spy_decode(monkeypatch, name="ros1_decode"):
     return calls
 
 
+def _spy_threads(monkeypatch, name, slow="main"):
+    """Record (thread is this one, the kernel's chunks argument) for every call of the compiled kernel
+    ``_bagkernels.<name>``; the calls of the ``slow`` thread ("main", "helper") wait 2 ms first, so that the other
+    takes batches too (or most of them)."""
+    import threading
+    import time
+
+    from optinav.io import _bagkernels as kern
+
+    real, seen, me = getattr(kern, name), [], threading.get_ident()
+
+    def spy(*args):
+        mine = threading.get_ident() == me
+        seen.append((mine, tuple(np.asarray(args[1]).tolist())))
+        if mine == (slow == "main"):
+            time.sleep(0.002)
+        return real(*args)
+
+    monkeypatch.setattr(kern, name, spy)
+    return seen
+
+
 def test_ros1_chunks_decoded_in_rounds_by_two_threads(tmp_path, monkeypatch):
-    """A plain ROS 1 bag of many chunks (Imu and MagneticField in each) is decoded chunk by chunk in rounds, half
-    of each round by a helper thread: the values written, exactly, and the same with one thread."""
+    """A plain ROS 1 bag of many chunks (Imu and MagneticField in each) is decoded chunk by chunk in batches taken
+    by this thread and a helper thread in turn: the values written, exactly, and the same with one thread."""
     from optinav.io import bagscan
 
     rng = np.random.default_rng(21)
@@ -268,11 +290,13 @@ def test_ros1_chunks_decoded_in_rounds_by_two_threads(tmp_path, monkeypatch):
     idx = bagscan.ros1_index(bag)
     assert len(idx["chunks"]) > 20 and all(len(held) == 2 for _, held in idx["chunks"])
     calls = _spy_decode(monkeypatch)
-    monkeypatch.setattr(bagscan, "_ROUND", 50_000)  # three or four chunks a round
+    monkeypatch.setattr(bagscan, "_ROUND", 50_000)  # three or four chunks a batch
     spy = _SpyPool()
     monkeypatch.setattr(bagscan, "_helper", lambda: spy)
+    seen = _spy_threads(monkeypatch, "ros1_decode")
     log = read_imu(bag)
-    assert calls == [True, True] and spy.jobs >= 2 * 8  # both topics, every round split
+    assert calls == [True, True] and spy.jobs == 2  # both topics
+    assert sum(m for m, _ in seen) >= 2 and sum(not m for m, _ in seen) >= 2  # both threads took batches
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
     mag = read_table(bag)["mz"]
     monkeypatch.setattr(bagscan, "_helper", lambda: None)
@@ -283,27 +307,43 @@ def test_ros1_chunks_decoded_in_rounds_by_two_threads(tmp_path, monkeypatch):
     assert np.array_equal(read_table(bag)["mz"], mag, equal_nan=True)
 
 
-def test_pages_mapped_ahead_of_each_round_only_speed_it_up(tmp_path, monkeypatch):
-    """Each round's byte range is mapped in one call before its kernel reads it (MADV_POPULATE_READ on Linux):
-    the rounds' ranges cover the topic's chunks, and the values are those written whether the OS takes the advice
-    or refuses it (an advice it does not know: switched off for the rest of the process, the reading the same)."""
+@pytest.mark.parametrize("slow", ["main", "helper"])
+def test_batches_go_to_the_thread_that_is_free(tmp_path, monkeypatch, slow):
+    """A bag's batches of chunks are taken by whichever thread is free (ROS 1 here; MCAP shares the rounds): with
+    one thread slowed (another process on its CPU), the other decodes most of them, every chunk exactly once,
+    and the values are those of one thread and those written (odd message counts, Imu and MagneticField in turns
+    in every chunk)."""
     from optinav.io import bagscan
 
     rng = np.random.default_rng(5)
-    msgs, t, gyr, acc = imu_topic(rng, n=3000, rate=1000.0)
-    bag = write_bag(tmp_path / "b", "ros1", {"/imu": (IMU, msgs)}, chunk_threshold=16384)  # MCAP: the same rounds
-    monkeypatch.setattr(bagscan, "_ROUND", 50_000)
-    spans, real = [], bagscan._populate
-    monkeypatch.setattr(bagscan, "_populate", lambda mm, a, b: (spans.append((a, b)), real(mm, a, b)))
-    monkeypatch.setattr(bagscan, "_POPULATE_READ", [22 if sys.platform == "linux" else 0])
+    msgs, t, gyr, acc = imu_topic(rng, n=3001, rate=1000.0)
+    mags = [(int((1_700_000_000 + k * 0.01) * 1e9) + 7, lambda ts, k=k: mag_msg(ts, 1_700_000_000, 10**7 * k + 7, rng.normal(0, 1e-5, 3))) for k in range(301)]  # fmt: skip
+    merged = sorted([(ts, "/imu", m) for ts, m in msgs] + [(ts, "/mag", m) for ts, m in mags], key=lambda x: x[0])
+    bag = tmp_path / "b.bag"
+    w = Writer1(bag)
+    w.chunk_threshold = 16384
+    with w:
+        cons = {name: w.add_connection(name, typ, typestore=TS1) for name, typ in (("/imu", IMU), ("/mag", MAG))}
+        for ts, name, make in merged:
+            w.write(cons[name], ts, TS1.serialize_ros1(make(TS1), IMU if name == "/imu" else MAG))
+    monkeypatch.setattr(bagscan, "_helper", lambda: None)
+    one = read_table(bag)
+    monkeypatch.setattr(bagscan, "_ROUND", 20_000)  # a chunk or two a batch
+    spy = _SpyPool()
+    monkeypatch.setattr(bagscan, "_helper", lambda: spy)
+    calls = _spy_decode(monkeypatch, "ros1_decode")
+    seen = _spy_threads(monkeypatch, "ros1_decode", slow=slow)
+    two = read_table(bag)
+    assert calls == [True, True] and spy.jobs == 2
+    for k in one:
+        assert np.array_equal(two[k], one[k], equal_nan=True), k
+    n = len(seen) // 2  # each topic's calls (the Imu topic's, then the MagneticField's: the same chunks)
+    for topic in (seen[:n], seen[n:]):
+        chunks = [c for _, cs in topic for c in cs]
+        assert len(chunks) == len(set(chunks)) >= 16  # every chunk once
+        fast = sum(m != (slow == "main") for m, _ in topic)
+        assert fast > 0.6 * len(topic), (slow, [m for m, _ in topic])
     log = read_imu(bag)
-    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
-    assert len(spans) >= 8 and all(b > a for a, b in spans)
-    spans.sort()
-    assert all(b0 <= a1 for (_, b0), (a1, _) in zip(spans, spans[1:]))  # no byte mapped twice
-    monkeypatch.setattr(bagscan, "_POPULATE_READ", [0x7FFF])  # no OS has this advice: EINVAL
-    log = read_imu(bag)
-    assert bagscan._POPULATE_READ == [0]
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
@@ -424,8 +464,8 @@ def test_ros1_chunk_info_against_the_chunks_index_records(tmp_path, damage):
 
 
 def test_mcap_chunks_decoded_in_rounds_by_two_threads(tmp_path, monkeypatch):
-    """An MCAP file of several uncompressed chunks is decoded chunk by chunk, half of each round by a helper
-    thread, each chunk's rows from its Message Index records: the values written. Declined — the blocks read it,
+    """An MCAP file of several uncompressed chunks is decoded chunk by chunk in batches taken by this thread and a
+    helper thread in turn, each chunk's rows from its Message Index records: the values written. Declined — the blocks read it,
     the same values — for zstd chunks, a message of another layout in a later chunk, and a Message Index whose
     count was changed."""
     import struct
@@ -434,13 +474,15 @@ def test_mcap_chunks_decoded_in_rounds_by_two_threads(tmp_path, monkeypatch):
 
     rng = np.random.default_rng(26)
     calls = _spy_decode(monkeypatch, "mcap_decode")
-    monkeypatch.setattr(bagscan, "_ROUND", 2 << 20)  # two chunks a round
+    monkeypatch.setattr(bagscan, "_ROUND", 1 << 20)  # a chunk a batch
     spy = _SpyPool()
     monkeypatch.setattr(bagscan, "_helper", lambda: spy)
     msgs, t, gyr, acc = imu_topic(rng, n=13000, rate=1000.0)  # four 1 MiB chunks (rosbags' size)
     bag = write_bag(tmp_path / "m", "mcap", {"/imu": (IMU, msgs)})
+    seen = _spy_threads(monkeypatch, "mcap_decode")
     log = read_imu(bag)
-    assert calls == [True] and spy.jobs >= 2
+    assert calls == [True] and spy.jobs == 1
+    assert sum(m for m, _ in seen) >= 2 and sum(not m for m, _ in seen) >= 1  # both threads took batches
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
     zst = write_bag(tmp_path / "z", "mcap", {"/imu": (IMU, msgs[:4000])}, compression="storage")
     log = read_imu(zst)
@@ -934,12 +976,12 @@ def test_sqlite_pages_decoded_in_rounds_and_grown(tmp_path, monkeypatch):
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
-@pytest.mark.parametrize("side", [(1.5, 64), (0.2, 1)])  # the second half's rows: room enough, or too little
-def test_sqlite_rounds_split_between_two_threads(tmp_path, monkeypatch, side):
-    """sqlite3 rounds split in halves, the second decoded by a helper thread into rows of its own and copied
-    after the first's (when it runs out of room, its rest goes to the next round): the Imu and MagneticField
-    values of the one-thread reading, exactly; log times out of order across the pages still read in rosbags'
-    order (the order across the halves is checked)."""
+@pytest.mark.parametrize("leaves,pages", [(1, 6), (2, 13)])  # pages per block and per round
+def test_sqlite_rounds_split_between_two_threads(tmp_path, monkeypatch, leaves, pages):
+    """sqlite3 rounds split in halves, the second decoded by a helper thread into the output after the first
+    half's cells (moved down where other topics' cells were among them): the Imu and MagneticField values of the
+    one-thread reading, exactly; log times out of order across the pages still read in rosbags' order (the order
+    across the halves is checked)."""
     import rosbags.highlevel
 
     from optinav.io import bagscan
@@ -952,9 +994,8 @@ def test_sqlite_rounds_split_between_two_threads(tmp_path, monkeypatch, side):
     monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)  # read by the scanner alone
     monkeypatch.setattr(bagscan, "_helper", lambda: None)
     one = read_table(bag)
-    monkeypatch.setattr(bagscan, "_LEAVES", 1)
-    monkeypatch.setattr(bagscan, "_ROUND", 6 * 4096)
-    monkeypatch.setattr(bagscan, "_SIDE", side)
+    monkeypatch.setattr(bagscan, "_LEAVES", leaves)
+    monkeypatch.setattr(bagscan, "_ROUND", pages * 4096)
     spy = _SpyPool()
     monkeypatch.setattr(bagscan, "_helper", lambda: spy)
     calls = _spy_decode(monkeypatch, "sqlite_decode")
@@ -973,6 +1014,50 @@ def test_sqlite_rounds_split_between_two_threads(tmp_path, monkeypatch, side):
         log = read_imu(bag)
     assert calls[2:] == [None]
     assert np.array_equal(log.gyr, ref[:, 1:4]) and np.array_equal(log.acc, ref[:, 4:7])
+
+
+def test_sqlite_halves_placed_by_cell_counts_equal_one_thread(tmp_path, monkeypatch):
+    """A sqlite3 round's second half, decoded by the helper thread after the first half's cells and moved down
+    onto its rows: with Imu and MagneticField messages interleaved in bursts (leaf pages holding both topics'
+    cells, in varying shares), odd counts, and the first pages without Imu messages (the estimate too low: the
+    output grows mid-read and a round's rest is decoded in one thread), the arrays of the one-thread reading,
+    exactly, and the values written."""
+    import optinav.io.rosbag as rb
+    import rosbags.highlevel
+
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(43)
+    msgs, t, gyr, acc = imu_topic(rng, n=1001, rate=1000.0)
+    t0 = 1_700_000_000 * 10**9
+    # 37 magnetometer messages before the first Imu message, then bursts of 1-9 at random times
+    tm = np.sort(np.concatenate([np.arange(37), rng.choice(np.arange(50, 100_000), 263, replace=False)]) * 10_000)
+    bm = rng.normal(0, 1e-5, (tm.size, 3))
+    mags = [(t0 + int(x), lambda ts, k=k: mag_msg(ts, 1_700_000_000, int(tm[k]), bm[k])) for k, x in enumerate(tm)]
+    w = Writer2(tmp_path / "s", version=9, storage_plugin=StoragePlugin.SQLITE3)
+    with w:
+        cons = {name: w.add_connection(name, typ, typestore=TS2) for name, typ in (("/imu", IMU), ("/mag", MAG))}
+        merged = sorted([(ts, "/imu", m) for ts, m in msgs] + [(ts, "/mag", m) for ts, m in mags], key=lambda x: x[0])
+        for ts, name, make in merged:
+            w.write(cons[name], ts, TS2.serialize_cdr(make(TS2), IMU if name == "/imu" else MAG))
+    bag = next((tmp_path / "s").glob("*.db3"))
+    monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)  # read by the scanner alone
+    monkeypatch.setattr(bagscan, "_LEAVES", 1)
+    monkeypatch.setattr(bagscan, "_ROUND", 7 * 4096)
+    monkeypatch.setattr(bagscan, "_helper", lambda: None)
+    one = read_table(bag)
+    spy = _SpyPool()
+    monkeypatch.setattr(bagscan, "_helper", lambda: spy)
+    calls = _spy_decode(monkeypatch, "sqlite_decode")
+    grown = []
+    resize = rb._Decoder._resize
+    monkeypatch.setattr(rb._Decoder, "_resize", lambda self, n: grown.append(n) or resize(self, n))
+    two = read_table(bag)
+    assert calls == [1001, 300] and spy.jobs >= 8 and len(grown) >= 3  # the first reservation, then growth
+    for k in one:
+        assert np.array_equal(two[k], one[k], equal_nan=True), k
+    log = read_imu(bag)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
 def test_offsets_outside_a_block_fall_back_to_rosbags(tmp_path, monkeypatch):

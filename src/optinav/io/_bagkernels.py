@@ -459,6 +459,20 @@ def sqlite_walk(buf, pages, psize, usable, ids, off, size, logt, last):
 
 
 @numba.njit(**_NJ)
+def sqlite_cells(buf, pages, psize):
+    """The cells of the table b-tree leaf ``pages`` (numbers from 1) of ``psize`` bytes by each page header's cell
+    count (bytes 3-4, big-endian), as :func:`sqlite_walk` reads it: at least the messages the walk finds there (as
+    many when every cell is the topic's). −1 for a page outside ``buf``."""
+    n = np.int64(0)
+    for pg in pages:
+        base = (pg - 1) * psize
+        if pg < 1 or base + psize > buf.size:
+            return np.int64(-1)
+        n += (np.int64(buf[base + 3]) << 8) | buf[base + 4]
+    return n
+
+
+@numba.njit(**_NJ)
 def mcap_decode(buf, chunks, chans, off, size, logt, lay, stamp, va, vb, out_logt, row, crc_checked):
     """:func:`mcap_walk` and :func:`gather` over the MCAP Chunk records at ``chunks`` (offsets of their opcode),
     each stored uncompressed and without a CRC (or with one the caller checked: ``crc_checked``), read in order
@@ -638,6 +652,7 @@ def warm() -> None:
     sqlite_decode(buf, i64[:0], 64, 64, i64, 1, i64, i64, i64, i64[:2], np.zeros(7, dtype=np.int64), np.zeros(1),
                   np.zeros((1, 3)), np.zeros((1, 3)), i64, 0)  # fmt: skip
     sqlite_walk(buf, i64[:0], 64, 64, i64, i64, i64, i64, i64[:2])
+    sqlite_cells(buf, i64[:0], 64)
     v = np.zeros((1, 3))
     ros1_decode(
         buf, i64[:0], 64, i64[:0], i64[:0], i64, i64, i64, i64, np.zeros(7, dtype=np.int64), np.zeros(1), v, v, i64

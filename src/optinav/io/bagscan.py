@@ -387,7 +387,7 @@ def mcap_decode(path: Path, topic: str, layout, out: tuple) -> bool:
     """Decode every message of ``topic`` in the MCAP file ``path`` into ``out`` = (stamps s, log times ns, triads
     a, triads b; as many rows as the topic has messages) by :func:`optinav.io._bagkernels.mcap_decode`: the
     chunks the summary's chunk index lists for the topic, each chunk's rows from its Message Index records (one
-    per channel: 16 bytes a message), in rounds (:func:`_rounds`: two threads). ``layout``: see
+    per channel: 16 bytes a message), in batches (:func:`_rounds`: two threads). ``layout``: see
     :func:`ros1_decode`. A chunk's CRC-32, when it has one, is checked before it is walked. False — nothing to
     trust in ``out`` — for a file without a summary, compressed chunks, a CRC that does not match, counts other than
     the message indexes', another layout, or anything that does not parse: the blocks (:func:`blocks`) read those."""
@@ -766,17 +766,18 @@ def _ros1_records(u8: np.ndarray, pos: int, end: int, conns: np.ndarray, rows: _
     return rows.block(u8, k)
 
 
-#: bytes of ROS 1 chunks decoded per round of :func:`ros1_decode` (half by each of two threads): the map's pages of a
-#: round are released after it, so the resident set holds about one round of the file
-_ROUND = 16 << 20
+#: bytes of chunks decoded per batch of :func:`_rounds` (each thread takes the next batch when it is done with one),
+#: per round of :func:`sqlite_decode` (half by each of two threads): the map's pages are released after each, so the
+#: resident set holds about one round of the file
+_ROUND = 4 << 20
 
 
 def ros1_decode(path: Path, idx: dict, conns: np.ndarray, layout, out: tuple) -> bool:
     """Decode every message of the connections ``conns`` of the ROS 1 bag ``path`` (its :func:`ros1_index`
     ``idx``) into ``out`` = (stamps s, log times ns, triads a, triads b: arrays of the connections' count of rows,
-    in chunk order) by :func:`optinav.io._bagkernels.ros1_decode`: the chunks in rounds of about ``_ROUND`` bytes,
-    each round split between this thread and a helper thread when the process may run on two CPUs (the kernels
-    release the GIL), the round's pages unmapped after it. ``layout(first message bytes)``: the gather layout
+    in chunk order) by :func:`optinav.io._bagkernels.ros1_decode`: the chunks in batches of about ``_ROUND`` bytes
+    taken in turn by this thread and a helper thread when the process may run on two CPUs (:func:`_rounds`; the
+    kernels release the GIL), each batch's pages unmapped after it. ``layout(first message bytes)``: the gather layout
     (7 int64, see the kernel) or None. False — nothing to trust in ``out`` — when a chunk is compressed, a chunk's
     count differs from its chunk info, a message has another layout, or the bag does not parse: the caller then
     reads the blocks (:func:`blocks`), which handle all of these."""
@@ -813,44 +814,46 @@ def ros1_decode(path: Path, idx: dict, conns: np.ndarray, layout, out: tuple) ->
 
 
 def _rounds(mm, pos: np.ndarray, nxt: np.ndarray, run, scratch: list) -> bool:
-    """Decode the chunks at ``pos`` (each ending before ``nxt``) in rounds of about ``_ROUND`` bytes:
-    ``run(a, b, scratch)`` decodes chunks ``a:b`` (True when they are done right); half of each round is handed
-    to a helper thread (the other ``scratch``) when there is one. The round's pages are unmapped after it."""
+    """Decode the chunks at ``pos`` (each ending before ``nxt``) in batches of about ``_ROUND`` bytes taken in
+    turn by this thread and, when there is one, a helper thread (the other ``scratch``): whichever is free takes
+    the next batch, so a thread slowed by other work on the machine decodes fewer and neither waits for the other
+    between batches. ``run(a, b, scratch)`` decodes chunks ``a:b`` into their own rows (True when they are done
+    right). Each batch's pages are unmapped after it."""
+    import threading
     from concurrent.futures import wait
 
+    cuts = [0]
+    while cuts[-1] < pos.size:
+        a = cuts[-1]
+        cuts.append(max(int(np.searchsorted(pos, pos[a] + _ROUND, side="left")), a + 1))
+    batches, lock, failed = iter(zip(cuts[:-1], cuts[1:])), threading.Lock(), []
+
+    def work(buf: tuple) -> None:
+        while not failed:
+            with lock:
+                a, b = next(batches, (0, 0))
+            if a == b:
+                return
+            if not run(a, b, buf):
+                failed.append((a, b))
+                return
+            _release(mm, int(pos[a]), int(nxt[b - 1]))  # decoded by now
+
     pool = _helper()
-    done = _Unmap(mm)
-
-    def mapped(a: int, b: int, buf: tuple) -> bool:
-        _populate(mm, int(pos[a]), int(nxt[b - 1]))
-        return run(a, b, buf)
-
-    a = 0
-    while a < pos.size:
-        b = int(np.searchsorted(pos, pos[a] + _ROUND, side="left"))
-        b = max(b, a + 1)
-        if pool is not None and b - a >= 2:
-            h = int(np.searchsorted(pos, (pos[a] + nxt[b - 1]) // 2, side="left"))
-            h = min(max(h, a + 1), b - 1)
-            job = pool.submit(mapped, h, b, scratch[1])
-            try:
-                ok = mapped(a, h, scratch[0])
-            finally:
-                wait([job])  # never leave the helper reading a map this returns from
-            ok = job.result() and ok
-        else:
-            ok = mapped(a, b, scratch[0])
-        if not ok:
-            return False
-        done.add(int(pos[a]), int(nxt[b - 1]))
-        a = b
-    done.flush()
-    return True
+    job = pool.submit(work, scratch[1]) if pool is not None and len(cuts) > 2 else None
+    try:
+        work(scratch[0])
+    finally:
+        if job is not None:
+            wait([job])  # never leave the helper reading a map this returns from
+    if job is not None:
+        job.result()  # its exception, if any
+    return not failed
 
 
 def _helper():
-    """The readers' helper threads (:func:`optinav.io._pool.helper`): :func:`ros1_decode` hands one half of a
-    round to one, :func:`_ahead` inflates chunks in all; None on one CPU."""
+    """The readers' helper threads (:func:`optinav.io._pool.helper`): :func:`_rounds` hands batches to one,
+    :func:`sqlite_decode` one half of each round, :func:`_ahead` inflates chunks in all; None on one CPU."""
     from optinav.io._pool import helper
 
     return helper()
@@ -998,12 +1001,12 @@ def sqlite_decode(files: list[Path], topic: str, layout, reserve) -> int | None:
         last = np.array([-1, np.iinfo(np.int64).min], dtype=np.int64)
         # the first block with messages: the layout (from the first file's first message) and an estimate of the
         # rows (its messages per page)
-        probe, k, b = last.copy(), 0, 0
+        probe, k, b, cells = last.copy(), 0, 0, 0
         while k == 0 and b < leaves.size:
-            status, _, k = kern.sqlite_walk(u8, leaves[b : b + _LEAVES], psize, usable, ids, *scratch, probe)
+            status, c, k = kern.sqlite_walk(u8, leaves[b : b + _LEAVES], psize, usable, ids, *scratch, probe)
             if status != kern.OK:
                 return None
-            b += _LEAVES
+            b, cells = b + _LEAVES, cells + c
         if k == 0:
             return None
         if lay is None:
@@ -1012,8 +1015,10 @@ def sqlite_decode(files: list[Path], topic: str, layout, reserve) -> int | None:
             if lay is None:
                 return None
         est = k / min(leaves.size, b)  # messages per page
-        out = reserve(row, row + int(np.ceil(est * leaves.size)) + 16)
-        done, per, pool, side = _Unmap(mm), max(_ROUND // psize, _LEAVES), _helper(), None
+        # room for the estimate and one round's cells more: a round's halves are placed by their cells' count
+        slack = int(np.ceil(cells / min(leaves.size, b) * max(_ROUND // psize, _LEAVES)))
+        out = reserve(row, row + int(np.ceil(est * leaves.size)) + slack + 16)
+        done, per, pool, scratch2 = _Unmap(mm), max(_ROUND // psize, _LEAVES), _helper(), None
         b = 0
         while b < leaves.size:
             pages = leaves[b : b + per]
@@ -1024,39 +1029,44 @@ def sqlite_decode(files: list[Path], topic: str, layout, reserve) -> int | None:
                     return None
                 pages = pages[:took]
             else:
-                # the second half into rows of its own by a helper thread (its count is not known before),
-                # copied after the first half's; the order across the halves checked after
-                part = pages[half:]
-                need = int(np.ceil(_SIDE[0] * max(est, row / max(b, 1)) * part.size)) + _SIDE[1]
-                if side is None or side[0].size < need:
-                    va = np.empty((need, 3))
-                    vb = va if out[2] is out[3] else np.empty((need, 3))  # one triad (MagneticField): one array
-                    side = (np.empty(need), np.empty(need, dtype=np.int64), va, vb)
-                    side2 = tuple(np.empty_like(a) for a in scratch)
+                # the second half decoded by a helper thread straight into the output from the row after the first
+                # half's cells (its page headers' counts, read by the helper first: at least its messages, as many
+                # when every cell is the topic's), then moved down onto the first half's last row if that holds
+                # fewer; no copy of a single-topic bag's rows. The order across the halves is checked after.
+                if scratch2 is None:
+                    scratch2 = tuple(np.empty_like(a) for a in scratch)
                 last2 = np.array([-1, np.iinfo(np.int64).min], dtype=np.int64)
-                job = pool.submit(kern.sqlite_decode, u8, part, psize, usable, ids, _LEAVES, *side2, last2, lay,
-                                  side[0], side[2], side[3], side[1], 0)  # fmt: skip
+                job = pool.submit(_sqlite_second_half, u8, pages, half, psize, usable, ids, scratch2, last2, lay,
+                                  out, row)  # fmt: skip
                 try:
-                    row, out, took = _sqlite_serial(
-                        u8, pages[:half], psize, usable, ids, scratch, last, lay, reserve, out, row
-                    )
+                    status, at, r1, _ = kern.sqlite_decode(u8, pages[:half], psize, usable, ids, _LEAVES, *scratch,
+                                                           last, lay, out[0], out[2], out[3], out[1], row)  # fmt: skip
                 finally:
                     wait([job])  # never leave the helper reading a map this returns from
-                status, at, n, _ = job.result()
-                if took != half or status not in (kern.OK, kern.ROOM):
+                lim, (status2, _, r2, _) = job.result()
+                if status2 == kern.ROOM and status in (kern.OK, kern.ROOM):
+                    # the output is short of the round's cells (the helper decoded nothing): grown as needed and
+                    # the rest of the round decoded here
+                    row, out, took = _sqlite_serial(
+                        u8, pages[at:], psize, usable, ids, scratch, last, lay, reserve, out, r1
+                    )
+                    if took is None:
+                        return None
+                    pages = pages[: at + took]
+                elif status != kern.OK or status2 != kern.OK or r1 > lim:
                     return None
-                probe = last.copy()  # the rowids across the halves, and the log times
-                if kern.sqlite_walk(u8, part[:_LEAVES], psize, usable, ids, *scratch, probe)[0] != kern.OK:
-                    return None
-                if n and side[1][0] < last[1]:
-                    return None
-                if row + n > out[0].size:
-                    out = reserve(row, max(2 * out[0].size, row + n))
-                for dst, src in zip(out, side):
-                    dst[row : row + n] = src[:n]
-                row += n
-                last[0], last[1] = max(last[0], last2[0]), max(last[1], last2[1])
-                pages = pages[: half + at]  # ROOM: the rest of the second half in the next round
+                else:
+                    probe = last.copy()  # the rowids across the halves, and the log times
+                    if kern.sqlite_walk(u8, pages[half : half + _LEAVES], psize, usable, ids, *scratch, probe)[0]:
+                        return None
+                    n = r2 - lim
+                    if n and out[1][lim] < last[1]:
+                        return None
+                    if n and lim > r1:  # other topics' cells among the first half's: close the gap
+                        for arr in {id(a): a for a in out}.values():  # one triad (MagneticField): one array
+                            arr[r1 : r1 + n] = arr[lim : lim + n]
+                    row = r1 + n
+                    last[0], last[1] = max(last[0], last2[0]), max(last[1], last2[1])
             if pages.size:
                 done.add(int(pages.min() - 1) * psize, int(pages.max()) * psize)  # decoded by now
             b += pages.size
@@ -1064,9 +1074,24 @@ def sqlite_decode(files: list[Path], topic: str, layout, reserve) -> int | None:
     return row
 
 
-#: room of the second half's own rows in :func:`sqlite_decode`: (factor on the messages per page so far, rows);
-#: a half that holds more stops (ROOM) and its rest is decoded in the next round
-_SIDE = (1.5, 64)
+def _sqlite_second_half(u8, pages, half, psize, usable, ids, scratch, last, lay, out, row) -> tuple:
+    """The helper thread's part of a round of :func:`sqlite_decode`: (the row its messages start at = ``row`` +
+    the cells of ``pages[:half]``, :func:`optinav.io._bagkernels.sqlite_decode`'s result for ``pages[half:]``
+    decoded from there; ROOM without decoding when the output is short of that row and the half's cells, MALFORMED
+    for a page outside the file)."""
+    from optinav.io import _bagkernels as kern
+
+    c1 = kern.sqlite_cells(u8, pages[:half], psize)
+    c2 = kern.sqlite_cells(u8, pages[half:], psize)
+    lim = row + c1
+    if c1 < 0 or c2 < 0:
+        return lim, (kern.MALFORMED, 0, lim, 0)
+    if lim + c2 > min(a.shape[0] for a in out):
+        return lim, (kern.ROOM, 0, lim, 0)
+    got = kern.sqlite_decode(
+        u8, pages[half:], psize, usable, ids, _LEAVES, *scratch, last, lay, out[0], out[2], out[3], out[1], lim
+    )
+    return lim, got
 
 
 def _sqlite_serial(u8, pages, psize, usable, ids, scratch, last, lay, reserve, out, row):
@@ -1157,26 +1182,6 @@ def _map(path: Path):
     with open(path, "rb") as fh:
         mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
     return mm, np.frombuffer(mm, dtype=np.uint8)
-
-
-#: Linux's madvise(MADV_POPULATE_READ) (5.14+; not named in Python's mmap module before 3.13; the number means
-#: other things or nothing elsewhere); 0 once refused
-_POPULATE_READ = [22 if sys.platform == "linux" else 0]
-
-
-def _populate(mm, start: int, stop: int) -> None:
-    """Map the pages of ``mm[start:stop]`` in one call before a kernel reads them: faulting them in one by one
-    as the kernel reads costs about twice as long (378 MB of a 1 M-message ROS 1 bag: 23 -> 11 ms on Linux 6.18).
-    Nothing where the OS has no such advice."""
-    import mmap
-
-    if not _POPULATE_READ[0] or stop <= start:
-        return
-    start -= start % mmap.PAGESIZE
-    try:
-        mm.madvise(_POPULATE_READ[0], start, min(stop, len(mm)) - start)
-    except (OSError, ValueError):  # an older kernel or another OS: the pages fault in as the kernel reads them
-        _POPULATE_READ[0] = 0
 
 
 def _release(mm, start: int, stop: int) -> None:
