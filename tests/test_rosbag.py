@@ -2010,3 +2010,34 @@ def test_alternation_of_one_real_imu_stays_far_below_the_refusal():
             mixed[1::2] += bias
             z.append(alternation(mixed)[0].max())
         assert max(z) > _ALTERNATE_Z, path.name
+
+
+def test_alternation_of_a_triad_is_the_general_sums_to_the_bit():
+    """The two-sensor check's sums of an (N, 3) triad (a pass of its own, in scalars) are those of the general
+    pass over the same columns beside a fourth of zeros, bit for bit, with NaN and inf rows left out alike; and
+    the check of a long log's two triads (the gyro's in the helper thread) names the triad that alternates."""
+    from types import SimpleNamespace
+
+    from optinav.io._bagkernels import alternation_sums
+    from optinav.io.imu import _COMPILED_ROWS, _one_source
+
+    rng = np.random.default_rng(53)
+    for n in (2, 3, 1001, 20_000):
+        x = rng.normal(0, 0.02, (n, 3)) + [0.1, -0.2, 9.81]
+        x[rng.random((n, 3)) < 0.01] = np.nan
+        if n > 10:
+            x[7, 1] = np.inf
+        m3, v3, m4, v4 = np.zeros(3), np.zeros(3), np.zeros(4), np.zeros(4)
+        c3 = alternation_sums(x, m3, v3)
+        c4 = alternation_sums(np.column_stack([x, np.zeros(n)]), m4, v4)
+        assert c3 == c4 and np.array_equal(m3, m4[:3]) and np.array_equal(v3, v4[:3]), n
+    n = _COMPILED_ROWS + 1001
+    acc = rng.normal(0, 0.02, (n, 3)) + [0, 0, 9.81]
+    gyr = rng.normal(0, 0.002, (n, 3))
+    table = SimpleNamespace(meta={"topic": "/imu"})
+    _one_source(SimpleNamespace(acc=acc, gyro=gyr, path=Path("b.bag")), table)  # one IMU: read
+    for kind in ("acc", "gyro"):
+        mixed = {"acc": acc.copy(), "gyro": gyr.copy()}
+        mixed[kind][1::2, 1] += 0.05 if kind == "acc" else 0.003
+        with pytest.raises(OptinavError, match=f"every other {kind} y departs"):
+            _one_source(SimpleNamespace(path=Path("b.bag"), **mixed), table)

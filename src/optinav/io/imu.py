@@ -1708,11 +1708,14 @@ def _one_source(part: _Part, table: Table) -> None:
     them apart, and read as one they were one IMU at twice the rate with exit 0). The sign: every other sample
     minus the mean of its two neighbours (a straight trend cancels) has a mean far beyond its standard error on
     some axis (:data:`_ALTERNATE_Z`), i.e. the two sensors' bias difference; one sensor's has none."""
-    for kind, unit in (("acc", "m/s^2"), ("gyro", "rad/s")):
-        x = getattr(part, kind)
-        if x is None or x.ndim != 2:
-            continue
-        z, mean = alternation(x)
+    from optinav.io._pool import helper
+
+    kinds = [(k, u, getattr(part, k)) for k, u in (("acc", "m/s^2"), ("gyro", "rad/s"))]
+    kinds = [(k, u, x) for k, u, x in kinds if x is not None and x.ndim == 2]
+    pool = helper() if len(kinds) == 2 and kinds[1][2].shape[0] >= _COMPILED_ROWS else None
+    ahead = None if pool is None else pool.submit(alternation, kinds[1][2])  # compiled, GIL released: both at once
+    for i, (kind, unit, x) in enumerate(kinds):
+        z, mean = ahead.result() if i == 1 and ahead is not None else alternation(x)
         j = int(np.argmax(z))
         if z[j] > _ALTERNATE_Z:
             raise OptinavError(
