@@ -769,7 +769,7 @@ def _ros1_records(u8: np.ndarray, pos: int, end: int, conns: np.ndarray, rows: _
 #: bytes of chunks decoded per batch of :func:`_rounds` (each thread takes the next batch when it is done with one),
 #: per round of :func:`sqlite_decode` (half by each of two threads): the map's pages are released after each, so the
 #: resident set holds about one round of the file
-_ROUND = 4 << 20
+_ROUND = 8 << 20
 
 
 def ros1_decode(path: Path, idx: dict, conns: np.ndarray, layout, out: tuple) -> bool:
