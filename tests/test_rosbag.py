@@ -2041,3 +2041,34 @@ def test_alternation_of_a_triad_is_the_general_sums_to_the_bit():
         mixed[kind][1::2, 1] += 0.05 if kind == "acc" else 0.003
         with pytest.raises(OptinavError, match=f"every other {kind} y departs"):
             _one_source(SimpleNamespace(path=Path("b.bag"), **mixed), table)
+
+
+def test_a_batch_that_raises_stops_the_other_thread(tmp_path, monkeypatch):
+    """An error in one thread's batch (here the first batch of the helper) stops the other thread at its next
+    batch, instead of it decoding the rest of the bag before the error is seen; the error reaches the reader,
+    which then reads the topic another way (the values written)."""
+    from optinav.io import _bagkernels as kern
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(59)
+    msgs, t, gyr, acc = imu_topic(rng, n=3001, rate=1000.0)
+    bag = write_bag(tmp_path / "b", "ros1", {"/imu": (IMU, msgs)}, chunk_threshold=16384)
+    monkeypatch.setattr(bagscan, "_ROUND", 20_000)
+    monkeypatch.setattr(bagscan, "_helper", lambda: _SpyPool())
+    import threading
+    import time
+
+    real, me, calls = kern.ros1_decode, threading.get_ident(), []
+
+    def failing(*args):
+        calls.append(threading.get_ident() == me)
+        if threading.get_ident() != me:
+            raise ValueError("a damaged chunk")
+        time.sleep(0.005)
+        return real(*args)
+
+    monkeypatch.setattr(kern, "ros1_decode", failing)
+    decoded = _spy_decode(monkeypatch, "ros1_decode")
+    log = read_imu(bag)
+    assert decoded == [] and calls.count(False) == 1 and calls.count(True) <= 2  # of about 40 batches
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)

@@ -834,8 +834,13 @@ def _rounds(mm, pos: np.ndarray, nxt: np.ndarray, run, scratch: list) -> bool:
                 a, b = next(batches, (0, 0))
             if a == b:
                 return
-            if not run(a, b, buf):
-                failed.append((a, b))
+            ok = False
+            try:
+                ok = run(a, b, buf)
+            finally:  # a batch that fails or raises stops the other thread too
+                if not ok:
+                    failed.append((a, b))
+            if not ok:
                 return
             _release(mm, int(pos[a]), int(nxt[b - 1]))  # decoded by now
 
