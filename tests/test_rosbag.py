@@ -2072,3 +2072,61 @@ def test_a_batch_that_raises_stops_the_other_thread(tmp_path, monkeypatch):
     log = read_imu(bag)
     assert decoded == [] and calls.count(False) == 1 and calls.count(True) <= 2  # of about 40 batches
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
+class _LatePool:
+    """A stand-in for the helper thread whose CPU is busy with other work: each job starts 0.2 s after it is
+    handed over, unless it was cancelled before; counts the jobs that ran."""
+
+    def __init__(self):
+        self.ran = 0
+
+    def submit(self, fn, *args):
+        import threading
+        from concurrent.futures import Future
+
+        fut = Future()
+
+        def start():
+            if fut.set_running_or_notify_cancel():
+                self.ran += 1
+                try:
+                    fut.set_result(fn(*args))
+                except BaseException as exc:  # noqa: BLE001 - handed to the waiting reader
+                    fut.set_exception(exc)
+
+        threading.Timer(0.2, start).start()
+        return fut
+
+
+def test_sqlite_round_not_started_by_the_helper_is_decoded_here(tmp_path, monkeypatch):
+    """A sqlite3 round's second half that the helper thread has not started when this thread is done with the
+    first (its CPU busy with another process) is decoded by this thread instead of waited for: the helper runs
+    no round, and the values are those of one thread (Imu and MagneticField interleaved, odd counts)."""
+    import rosbags.highlevel
+
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(61)
+    msgs, t, gyr, acc = imu_topic(rng, n=1201, rate=1000.0)
+    mags = [(1_700_000_000 * 10**9 + 10**7 * k + 3, lambda ts, k=k: mag_msg(ts, 1_700_000_000, 10**7 * k, rng.normal(0, 1e-5, 3))) for k in range(121)]  # fmt: skip
+    merged = sorted([(ts, "/imu", m) for ts, m in msgs] + [(ts, "/mag", m) for ts, m in mags], key=lambda x: x[0])
+    w = Writer2(tmp_path / "s", version=9, storage_plugin=StoragePlugin.SQLITE3)
+    with w:
+        cons = {name: w.add_connection(name, typ, typestore=TS2) for name, typ in (("/imu", IMU), ("/mag", MAG))}
+        for ts, name, make in merged:
+            w.write(cons[name], ts, TS2.serialize_cdr(make(TS2), IMU if name == "/imu" else MAG))
+    bag = next((tmp_path / "s").glob("*.db3"))
+    monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)  # read by the scanner alone
+    monkeypatch.setattr(bagscan, "_LEAVES", 1)
+    monkeypatch.setattr(bagscan, "_ROUND", 8 * 4096)
+    monkeypatch.setattr(bagscan, "_helper", lambda: None)
+    one = read_table(bag)
+    late = _LatePool()
+    monkeypatch.setattr(bagscan, "_helper", lambda: late)
+    calls = _spy_decode(monkeypatch, "sqlite_decode")
+    two = read_table(bag)
+    assert calls == [1201, 121] and late.ran == 0
+    for k in one:
+        assert np.array_equal(two[k], one[k], equal_nan=True), k
+    assert np.array_equal(two["t"], t) and np.array_equal(two["gx"], gyr[:, 0])

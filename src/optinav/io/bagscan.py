@@ -1047,11 +1047,14 @@ def sqlite_decode(files: list[Path], topic: str, layout, reserve) -> int | None:
                     status, at, r1, _ = kern.sqlite_decode(u8, pages[:half], psize, usable, ids, _LEAVES, *scratch,
                                                            last, lay, out[0], out[2], out[3], out[1], row)  # fmt: skip
                 finally:
-                    wait([job])  # never leave the helper reading a map this returns from
-                lim, (status2, _, r2, _) = job.result()
+                    # a helper that has not started (its CPU busy with other work) is not waited for
+                    idle = job.cancel()
+                    if not idle:
+                        wait([job])  # never leave the helper reading a map this returns from
+                lim, (status2, _, r2, _) = (row, (kern.ROOM, 0, row, 0)) if idle else job.result()
                 if status2 == kern.ROOM and status in (kern.OK, kern.ROOM):
-                    # the output is short of the round's cells (the helper decoded nothing): grown as needed and
-                    # the rest of the round decoded here
+                    # the helper decoded nothing (not started, or the output is short of the round's cells):
+                    # the rest of the round decoded here, the output grown as needed
                     row, out, took = _sqlite_serial(
                         u8, pages[at:], psize, usable, ids, scratch, last, lay, reserve, out, r1
                     )

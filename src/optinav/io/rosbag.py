@@ -11,7 +11,8 @@ iteration when the scanners do not read the bag) and are decoded from their fixe
 gather (:mod:`optinav.io._bagkernels`; checked against ``rosbags``' own deserializer on the first message) into
 (n, 3) arrays; messages of another length are deserialized one by one. Plain ROS 1 bags, MCAP files and sqlite3
 files are decoded whole, each chunk (or block of pages) walked and gathered in one compiled call while its bytes
-are in cache, half of the work by a helper thread (:func:`_whole`, :func:`_sqlite_fused`); anything they decline
+are in cache, with a helper thread (batches of chunks to whichever thread is free, half of each round of sqlite3
+pages: :func:`_whole`, :func:`_sqlite_fused`); anything they decline
 goes through the blocks. :func:`iter_bag` gives the same table in
 blocks of messages (two passes over the storage), so that memory does not grow with the bag.
 """
