@@ -688,16 +688,13 @@ def estimate(
             err = offset_change_error(pieces, rows, turns[2], checked, offline, bin_fields(turns[0], less), up)
             if err is None and mag_hard_iron is not None:  # subtracted from every row: it must be there at each
                 err = offset_held_error(*turns[:2], turns[2], rows, mag_hard_iron, offline)
-            if err is not None:
-                raise err
-            unseen = None
-            if checked is None and not online_fit:  # no offset taken out: the field must turn about zero
-                unseen = offset_unseen_error(pieces, *turns, rows, mag[:: mag_fit_stride(mag.shape[0])], offline)
+            if err is None and checked is None and not online_fit:  # no offset taken out: it must turn about zero
+                err = offset_unseen_error(pieces, *turns, rows, mag[:: mag_fit_stride(mag.shape[0])], offline)
             # the field the estimate uses: less the offset it subtracts. Before an offset the field turns about is
             # refused: a mirrored frame or a magnetometer in other axes turns it about a point off zero too
             check_mag_axes(acc, mag if checked is None else mag - checked, step, gyr)
-            if unseen is not None:
-                raise unseen
+            if err is not None:
+                raise err
     if mag_hard_iron is not None:
         mag = mag - mag_hard_iron
     gaps = find_gaps(dts)

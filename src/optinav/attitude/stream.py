@@ -266,7 +266,7 @@ class StreamChecks:
         offset = (
             given if given is not None else self.fitted_hard_iron if self.offline or self.hard_iron_judged else None
         )
-        unseen = None
+        err = None  # raised after the magnetometer-axes check (a mirrored frame turns the field about other points)
         if self._mag and self._scale_sums:  # one offset for the whole recording, or none, must hold in every part
             bins, raw, h = self._turn_sums()
             sums = _c.rate_sums_less_offset(raw, offset)
@@ -282,10 +282,8 @@ class StreamChecks:
             subtracted = given if given is not None else self.fitted_hard_iron if self.offline else None
             if err is None and subtracted is not None:
                 err = _c.offset_held_error(bins, raw, h, self._scale_rows, subtracted, self.offline)
-            if err is not None:
-                raise err
-            if offset is None:  # no offset taken out: the field must turn about zero (raised after the axes check)
-                unseen = _c.offset_unseen_error(
+            if err is None and offset is None:  # no offset taken out: the field must turn about zero
+                err = _c.offset_unseen_error(
                     pieces, bins, sums, h, self._scale_rows, np.concatenate(self._mag), self.offline
                 )
         if self._mag_sums:  # in the order of check_mag_axes, on the field less the offset the estimate subtracts
@@ -297,13 +295,11 @@ class StreamChecks:
             if self._gyr_sums:
                 gyro = [np.concatenate(x) for x in zip(*self._gyr_sums)]
                 _c.check_mag_turns(sums[0], sums[2], sums[3], *gyro, self.median_dt)
-        elif self._witness:
+        elif self._witness and err is None:
             err = _c.witness_error(*(np.concatenate(x) for x in zip(*self._witness)), self._scale_rows * self.median_dt,
                                    self.gyro_unit)  # fmt: skip
-            if err is not None:
-                raise err
-        if unseen is not None:
-            raise unseen
+        if err is not None:
+            raise err
 
 
 class StreamEstimator:
