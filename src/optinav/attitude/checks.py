@@ -3025,6 +3025,33 @@ def _carried(fields, h: float, k: int, b: np.ndarray, field: float, at_end: bool
     return float(np.linalg.norm(np.median(mm[:s], axis=0) - np.median(mm[-s:], axis=0))) < MAG_OFFSET * field
 
 
+#: rad, an offset the estimate would keep that turns the heading by less than this (RMS over the log) is not refused:
+#: the heading error is the angle between the field's horizontal part with and without it, so an offset along the
+#: vertical, or a small one beside a strong horizontal field, turns it little. A calibrated magnetometer's residual
+#: of 2.9 µT beside 28 µT (dip 23°) and one of 6.6 µT along the body's z beside 57 µT on a body that tilts little
+#: were refused at 2.4° and 1.6° heading RMSE (the offsets beyond MAG_OFFSET of the field)
+MAG_UNSEEN_HEADING = np.radians(5.0)
+
+
+def offset_heading(b: np.ndarray, bins, acc_sums, field_sums, counts) -> float:
+    """rad, the RMS over the TILT_BIN bins of :func:`mag_sums` (split bins merged) of the heading turn an offset
+    ``b`` (3,, the field's unit) left in the field gives: the angle between the horizontal parts (across the bin's
+    mean specific force, taken for up) of the field and of the field less b; NaN without a bin with a field."""
+    if len(bins) == 0:
+        return float("nan")
+    _, S = merge_bins(np.asarray(bins), np.column_stack([acc_sums, field_sums, counts]))
+    ok = S[:, 6] > 0
+    up, m = S[ok, :3], S[ok, 3:6] / S[ok, 6:7]
+    up = up / np.maximum(_norm(up), 1e-300)[:, None]
+
+    def level(v):
+        return v - np.sum(v * up, axis=1)[:, None] * up
+
+    mh, eh = level(m), level(m - b)
+    turn = np.arctan2(_norm(np.cross(mh, eh)), np.sum(mh * eh, axis=1))
+    return float(np.sqrt(np.mean(turn**2))) if turn.size else float("nan")
+
+
 def offset_unseen_error(
     pieces: list[tuple[int, np.ndarray | None, float]],
     bins: np.ndarray,
@@ -3033,6 +3060,7 @@ def offset_unseen_error(
     rows: int,
     mag: np.ndarray,
     offline: bool = False,
+    tilt=None,
 ) -> OptinavError | None:
     """The refusal of a field, no offset subtracted, that turns about one point off zero wherever it is judged and
     about zero nowhere: the windows of :func:`offset_pieces` (``pieces`` of ``bins``, ``sums`` of
@@ -3042,7 +3070,9 @@ def offset_unseen_error(
     too: :func:`_carried`). An
     uncalibrated magnetometer in a log that turns it too little for the whole log's fits: BROAD's last 40 s with
     (25, -15, 35) µT ran at 78-94° heading RMSE with exit 0. None otherwise (a window about zero shows the Earth's
-    field; a magnet put on in the rest before the motion leaves the start's reference clean: BROAD 33 from 20 s)."""
+    field; a magnet put on in the rest before the motion leaves the start's reference clean: BROAD 33 from 20 s; with
+    ``tilt``, a callable giving :func:`mag_sums` of the log, an offset that turns the heading by under
+    :data:`MAG_UNSEEN_HEADING`: :func:`offset_heading`)."""
     if any(b is None for _, b, _ in pieces):
         return None
     # each fit only where the one before it shows nothing (a window about zero, the usual case, needs neither)
@@ -3066,6 +3096,8 @@ def offset_unseen_error(
     else:
         return None
     if not _carried(fields, h, k0, b, field, False) or (offline and not _carried(fields, h, k1 - 1, b, field, True)):
+        return None
+    if tilt is not None and not offset_heading(b, *tilt()[:4]) >= MAG_UNSEEN_HEADING:
         return None
     if pieces or moving is not None:
         share = "" if explained is None else f" (that offset explains {explained:.0%} of what the gyro leaves of it)"

@@ -689,7 +689,9 @@ def estimate(
             if err is None and mag_hard_iron is not None:  # subtracted from every row: it must be there at each
                 err = offset_held_error(*turns[:2], turns[2], rows, mag_hard_iron, offline)
             if err is None and checked is None and not online_fit:  # no offset taken out: it must turn about zero
-                err = offset_unseen_error(pieces, *turns, rows, mag[:: mag_fit_stride(mag.shape[0])], offline)
+                err = offset_unseen_error(
+                    pieces, *turns, rows, mag[:: mag_fit_stride(mag.shape[0])], offline, lambda: mag_sums(acc, mag)
+                )
             # the field the estimate uses: less the offset it subtracts. Before an offset the field turns about is
             # refused: a mirrored frame or a magnetometer in other axes turns it about a point off zero too
             check_mag_axes(acc, mag if checked is None else mag - checked, step, gyr)

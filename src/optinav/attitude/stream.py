@@ -284,8 +284,9 @@ class StreamChecks:
                 err = _c.offset_held_error(bins, raw, h, self._scale_rows, subtracted, self.offline)
             if err is None and offset is None:  # no offset taken out: the field must turn about zero
                 err = _c.offset_unseen_error(
-                    pieces, bins, sums, h, self._scale_rows, np.concatenate(self._mag), self.offline
-                )
+                    pieces, bins, sums, h, self._scale_rows, np.concatenate(self._mag), self.offline,
+                    (lambda: [np.concatenate(x) for x in zip(*self._mag_sums)]) if self._mag_sums else None,
+                )  # fmt: skip
         if self._mag_sums:  # in the order of check_mag_axes, on the field less the offset the estimate subtracts
             sums = [np.concatenate(x) for x in zip(*self._mag_sums)]
             sums[2] = _c.field_less_offset(sums[2], sums[3], offset)
