@@ -3029,8 +3029,9 @@ def _carried(fields, h: float, k: int, b: np.ndarray, field: float, at_end: bool
 #: the heading error is the angle between the field's horizontal part with and without it, so an offset along the
 #: vertical, or a small one beside a strong horizontal field, turns it little. A calibrated magnetometer's residual
 #: of 2.9 µT beside 28 µT (dip 23°) and one of 6.6 µT along the body's z beside 57 µT on a body that tilts little
-#: were refused at 2.4° and 1.6° heading RMSE (the offsets beyond MAG_OFFSET of the field)
-MAG_UNSEEN_HEADING = np.radians(5.0)
+#: were refused at 2.4° and 1.6° heading RMSE (the offsets beyond MAG_OFFSET of the field). It gives 0.75-1.2× the
+#: heading RMSE the raw field runs at where that is over 4° (2.9 µT beside 36 µT, dip −51°: 4.9° for 5.5°, refused)
+MAG_UNSEEN_HEADING = np.radians(4.0)
 
 
 def offset_heading(b: np.ndarray, bins, acc_sums, field_sums, counts) -> float:
