@@ -1016,6 +1016,27 @@ def test_sqlite_rounds_split_between_two_threads(tmp_path, monkeypatch, leaves, 
     assert np.array_equal(log.gyr, ref[:, 1:4]) and np.array_equal(log.acc, ref[:, 4:7])
 
 
+def _imu_mag_sqlite_in_small_rounds(tmp_path, monkeypatch, msgs, mags, pages: int):
+    """A rosbag2 sqlite3 bag of the Imu messages ``msgs`` and MagneticField messages ``mags`` ((stamp ns, maker)
+    pairs) interleaved by stamp, to be read by the scanner alone in rounds of ``pages`` pages of one leaf each and
+    one thread (the caller hands it a helper after its first reading); its path."""
+    import rosbags.highlevel
+
+    from optinav.io import bagscan
+
+    merged = sorted([(ts, "/imu", m) for ts, m in msgs] + [(ts, "/mag", m) for ts, m in mags], key=lambda x: x[0])
+    w = Writer2(tmp_path / "s", version=9, storage_plugin=StoragePlugin.SQLITE3)
+    with w:
+        cons = {name: w.add_connection(name, typ, typestore=TS2) for name, typ in (("/imu", IMU), ("/mag", MAG))}
+        for ts, name, make in merged:
+            w.write(cons[name], ts, TS2.serialize_cdr(make(TS2), IMU if name == "/imu" else MAG))
+    monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)
+    monkeypatch.setattr(bagscan, "_LEAVES", 1)
+    monkeypatch.setattr(bagscan, "_ROUND", pages * 4096)
+    monkeypatch.setattr(bagscan, "_helper", lambda: None)
+    return next((tmp_path / "s").glob("*.db3"))
+
+
 def test_sqlite_halves_placed_by_cell_counts_equal_one_thread(tmp_path, monkeypatch):
     """A sqlite3 round's second half, decoded by the helper thread after the first half's cells and moved down
     onto its rows: with Imu and MagneticField messages interleaved in bursts (leaf pages holding both topics'
@@ -1023,7 +1044,6 @@ def test_sqlite_halves_placed_by_cell_counts_equal_one_thread(tmp_path, monkeypa
     output grows mid-read and a round's rest is decoded in one thread), the arrays of the one-thread reading,
     exactly, and the values written."""
     import optinav.io.rosbag as rb
-    import rosbags.highlevel
 
     from optinav.io import bagscan
 
@@ -1034,17 +1054,7 @@ def test_sqlite_halves_placed_by_cell_counts_equal_one_thread(tmp_path, monkeypa
     tm = np.sort(np.concatenate([np.arange(37), rng.choice(np.arange(50, 100_000), 263, replace=False)]) * 10_000)
     bm = rng.normal(0, 1e-5, (tm.size, 3))
     mags = [(t0 + int(x), lambda ts, k=k: mag_msg(ts, 1_700_000_000, int(tm[k]), bm[k])) for k, x in enumerate(tm)]
-    w = Writer2(tmp_path / "s", version=9, storage_plugin=StoragePlugin.SQLITE3)
-    with w:
-        cons = {name: w.add_connection(name, typ, typestore=TS2) for name, typ in (("/imu", IMU), ("/mag", MAG))}
-        merged = sorted([(ts, "/imu", m) for ts, m in msgs] + [(ts, "/mag", m) for ts, m in mags], key=lambda x: x[0])
-        for ts, name, make in merged:
-            w.write(cons[name], ts, TS2.serialize_cdr(make(TS2), IMU if name == "/imu" else MAG))
-    bag = next((tmp_path / "s").glob("*.db3"))
-    monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)  # read by the scanner alone
-    monkeypatch.setattr(bagscan, "_LEAVES", 1)
-    monkeypatch.setattr(bagscan, "_ROUND", 7 * 4096)
-    monkeypatch.setattr(bagscan, "_helper", lambda: None)
+    bag = _imu_mag_sqlite_in_small_rounds(tmp_path, monkeypatch, msgs, mags, 7)
     one = read_table(bag)
     spy = _SpyPool()
     monkeypatch.setattr(bagscan, "_helper", lambda: spy)
@@ -2103,24 +2113,13 @@ def test_sqlite_round_not_started_by_the_helper_is_decoded_here(tmp_path, monkey
     """A sqlite3 round's second half that the helper thread has not started when this thread is done with the
     first (its CPU busy with another process) is decoded by this thread instead of waited for: the helper runs
     no round, and the values are those of one thread (Imu and MagneticField interleaved, odd counts)."""
-    import rosbags.highlevel
 
     from optinav.io import bagscan
 
     rng = np.random.default_rng(61)
     msgs, t, gyr, acc = imu_topic(rng, n=1201, rate=1000.0)
     mags = [(1_700_000_000 * 10**9 + 10**7 * k + 3, lambda ts, k=k: mag_msg(ts, 1_700_000_000, 10**7 * k, rng.normal(0, 1e-5, 3))) for k in range(121)]  # fmt: skip
-    merged = sorted([(ts, "/imu", m) for ts, m in msgs] + [(ts, "/mag", m) for ts, m in mags], key=lambda x: x[0])
-    w = Writer2(tmp_path / "s", version=9, storage_plugin=StoragePlugin.SQLITE3)
-    with w:
-        cons = {name: w.add_connection(name, typ, typestore=TS2) for name, typ in (("/imu", IMU), ("/mag", MAG))}
-        for ts, name, make in merged:
-            w.write(cons[name], ts, TS2.serialize_cdr(make(TS2), IMU if name == "/imu" else MAG))
-    bag = next((tmp_path / "s").glob("*.db3"))
-    monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)  # read by the scanner alone
-    monkeypatch.setattr(bagscan, "_LEAVES", 1)
-    monkeypatch.setattr(bagscan, "_ROUND", 8 * 4096)
-    monkeypatch.setattr(bagscan, "_helper", lambda: None)
+    bag = _imu_mag_sqlite_in_small_rounds(tmp_path, monkeypatch, msgs, mags, 8)
     one = read_table(bag)
     late = _LatePool()
     monkeypatch.setattr(bagscan, "_helper", lambda: late)
