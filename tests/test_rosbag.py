@@ -296,7 +296,8 @@ def test_ros1_chunks_decoded_in_rounds_by_two_threads(tmp_path, monkeypatch):
     seen = _spy_threads(monkeypatch, "ros1_decode")
     log = read_imu(bag)
     assert calls == [True, True] and spy.jobs == 2  # both topics
-    assert sum(m for m, _ in seen) >= 2 and sum(not m for m, _ in seen) >= 2  # both threads took batches
+    # the helper took batches (this thread's calls wait 2 ms: on a loaded machine the helper may take them all)
+    assert sum(not m for m, _ in seen) >= 1
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
     mag = read_table(bag)["mz"]
     monkeypatch.setattr(bagscan, "_helper", lambda: None)
@@ -482,7 +483,8 @@ def test_mcap_chunks_decoded_in_rounds_by_two_threads(tmp_path, monkeypatch):
     seen = _spy_threads(monkeypatch, "mcap_decode")
     log = read_imu(bag)
     assert calls == [True] and spy.jobs == 1
-    assert sum(m for m, _ in seen) >= 2 and sum(not m for m, _ in seen) >= 1  # both threads took batches
+    # the helper took batches (this thread's calls wait 2 ms: on a loaded machine the helper may take them all)
+    assert sum(not m for m, _ in seen) >= 1
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
     zst = write_bag(tmp_path / "z", "mcap", {"/imu": (IMU, msgs[:4000])}, compression="storage")
     log = read_imu(zst)
