@@ -60,7 +60,13 @@ S_MAG_CORR = 134  # 1: the last sample's field was used less the fitted offset
 S_HI_U = 135  # Σw·u (3), u the up direction in body axes over the offset fit's samples (its tilt spread)
 S_HI_N = 138  # Σw·C r (3): the fit's residual r = m − Cᵀe in the navigation frame (a field fixed in the room)
 S_REST_LP = 141  # the specific force in I low-passed over rest_tau_acc while at rest (3), then 1 while it runs
-STATE_SIZE = 145
+#: rest_tau's a bias step at rest must last, its rate flat (the means of the halves of that time within 3 standard
+#: errors): a ramp rises between them by slope × this × rest_tau / 2, against noise that falls as its square root
+STEP_TAUS = 2.0
+# per axis, over a candidate bias step's STEP_TAUS rest_tau (S_STEP_T): n, Σg, Σg² of the band-limited rate in its first half,
+# then in its second (6 per axis)
+S_STEP_S = 145
+STATE_SIZE = 163
 
 #: s, the rest detector reads gyro and accelerometer through a first-order low-pass of this time constant (a band
 #: of about 1/(4·REST_BAND_TAU) = 250 Hz): white noise of a given density (rad/s/√Hz, m/s²/√Hz) then deviates from
@@ -214,6 +220,40 @@ def _quad(P, hx, hy, hz):
         + hy * (P[3] * hx + P[4] * hy + P[5] * hz)
         + hz * (P[6] * hx + P[7] * hy + P[8] * hz)
     )
+
+
+@numba.njit(inline="always", **_NJ)
+def _step_add(st, j, g, late):
+    """Add the band-limited rate ``g`` (rad/s) of axis ``j`` to the sums of the first half of a candidate bias
+    step's STEP_TAUS rest_tau (``late``: of its second)."""
+    k = S_STEP_S + 6 * j + (3 if late else 0)
+    st[k] += 1.0
+    st[k + 1] += g
+    st[k + 2] += g * g
+
+
+@numba.njit(inline="always", **_NJ)
+def _step_reset(st, j):
+    """End axis ``j``'s candidate bias step (its time and sums), if one is open."""
+    if st[S_STEP_T + j] != 0.0:
+        st[S_STEP_T + j] = 0.0
+        for k in range(6):
+            st[S_STEP_S + 6 * j + k] = 0.0
+
+
+@numba.njit(inline="always", **_NJ)
+def _step_flat(st, j) -> bool:
+    """Whether axis ``j``'s rate was flat over its candidate bias step: the means of the halves of its time differ
+    by under 3 standard errors of their difference (from the halves' own scatter); True with too few samples."""
+    k = S_STEP_S + 6 * j
+    n1, n2 = st[k], st[k + 3]
+    if n1 < 2.0 or n2 < 2.0:
+        return True
+    m1, m2 = st[k + 1] / n1, st[k + 4] / n2
+    v1 = max(st[k + 2] / n1 - m1 * m1, 0.0) * n1 / (n1 - 1.0)
+    v2 = max(st[k + 5] / n2 - m2 * m2, 0.0) * n2 / (n2 - 1.0)
+    d = m2 - m1
+    return d * d <= 9.0 * (v1 / n1 + v2 / n2)
 
 
 @numba.njit(**_NJ)
@@ -591,7 +631,8 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
     rest = st[S_REST_T] >= par[P_REST_TIME]
     st[S_REST] = 1.0 if rest else 0.0
     if not rest:
-        st[S_STEP_T] = st[S_STEP_T + 1] = st[S_STEP_T + 2] = 0.0
+        for j in range(3):
+            _step_reset(st, j)
     # --- bias: random walk, rest measurement -------------------------------------------------------------
     qrw = par[P_BIAS_RW] ** 2 * h
     st[S_P] += qrw
@@ -600,18 +641,26 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
     if rest:
         r = par[P_BIAS_REST] ** 2 / h
         for j in range(3):
-            # a bias step (innovation beyond 3σ of the low-passed gyro for rest_tau s) resets that axis to its
-            # prior σ. Until it has lasted that long the sample teaches nothing: it may be the start of a motion
+            # a bias step (innovation beyond 3σ of the low-passed gyro for STEP_TAUS rest_tau s, the rate flat
+            # over that time) resets that axis to its prior σ. Until it has lasted that long the sample teaches
+            # nothing: it may be the start of a motion
             # the rest detector has not seen yet (it lags ~0.25 s behind a smooth start), and a reset there took
             # the turning gyro for the bias (simulated flight: 0.3 °/s bias learned at rest, 0.005 °/s after
             # the first 0.25 s of motion, and the 60-s inclination 1.4 -> 2.8° behind the motion gate)
             z = st[S_RG + j] - st[S_BIAS + j]
             if z * z > 9.0 * (st[S_P + 4 * j] + par[P_BIAS_REST] ** 2 / par[P_REST_TAU]):
                 st[S_STEP_T + j] += h
-                if st[S_STEP_T + j] < par[P_REST_TAU]:
+                if st[S_STEP_T + j] < STEP_TAUS * par[P_REST_TAU]:
+                    _step_add(st, j, g[j], st[S_STEP_T + j] >= 0.5 * STEP_TAUS * par[P_REST_TAU])
+                    continue
+                # a step is flat: the smooth start of a turn the rest detector has not seen yet (a ramp under
+                # 4 °/s² passes its still test) rises between the halves of that time, and was taken for the
+                # bias (a level body yawing from rest: 1.5 °/s on z, its heading 46° off in 40 s)
+                if not _step_flat(st, j):
+                    _step_reset(st, j)
                     continue
                 st[S_P + 4 * j] = max(st[S_P + 4 * j], par[P_BIAS_SIGMA0] ** 2, z * z)
-            st[S_STEP_T + j] = 0.0
+            _step_reset(st, j)
             hj0 = 1.0 if j == 0 else 0.0
             hj1 = 1.0 if j == 1 else 0.0
             hj2 = 1.0 if j == 2 else 0.0
