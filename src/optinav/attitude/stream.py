@@ -267,13 +267,14 @@ class StreamChecks:
             given if given is not None else self.fitted_hard_iron if self.offline or self.hard_iron_judged else None
         )
         err = None  # raised after the magnetometer-axes check (a mirrored frame turns the field about other points)
+        # the tilt bins' sums (bins, specific force, field, counts, …) over the whole log, joined once
+        msums = [np.concatenate(x) for x in zip(*self._mag_sums)] if self._mag_sums else None
         if self._mag and self._scale_sums:  # one offset for the whole recording, or none, must hold in every part
             bins, raw, h = self._turn_sums()
             sums = _c.rate_sums_less_offset(raw, offset)
             up = None
-            if self._mag_sums:  # the specific force over the last second (as estimate() takes it)
-                m_bins, m_acc, _, m_count, _ = (np.concatenate(x) for x in zip(*self._mag_sums))
-                up = _c.end_up(m_bins, m_acc, m_count, self.median_dt)
+            if msums is not None:  # the specific force over the last second (as estimate() takes it)
+                up = _c.end_up(msums[0], msums[1], msums[3], self.median_dt)
             pieces = _c.offset_pieces(bins, sums, h)
             err = _c.offset_change_error(
                 pieces, self._scale_rows, h, offset, self.offline, _c.bin_fields(bins, sums), up
@@ -285,10 +286,10 @@ class StreamChecks:
             if err is None and offset is None:  # no offset taken out: the field must turn about zero
                 err = _c.offset_unseen_error(
                     pieces, bins, sums, h, self._scale_rows, np.concatenate(self._mag), self.offline,
-                    (lambda: [np.concatenate(x) for x in zip(*self._mag_sums)]) if self._mag_sums else None,
+                    (lambda: msums) if msums is not None else None,
                 )  # fmt: skip
-        if self._mag_sums:  # in the order of check_mag_axes, on the field less the offset the estimate subtracts
-            sums = [np.concatenate(x) for x in zip(*self._mag_sums)]
+        if msums is not None:  # in the order of check_mag_axes, on the field less the offset the estimate subtracts
+            sums = list(msums)
             sums[2] = _c.field_less_offset(sums[2], sums[3], offset)
             _c.warn_or_refuse_mag_axes(*_c.mag_axes_hint(*sums, self.median_dt))
             if self._scale_sums:
