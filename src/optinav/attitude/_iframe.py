@@ -63,8 +63,8 @@ S_REST_LP = 141  # the specific force in I low-passed over rest_tau_acc while at
 #: rest_tau's a bias step at rest must last, its rate flat (the means of the halves of that time within 3 standard
 #: errors): a ramp rises between them by slope × this × rest_tau / 2, against noise that falls as its square root
 STEP_TAUS = 2.0
-# per axis, over a candidate bias step's STEP_TAUS rest_tau (S_STEP_T): n, Σg, Σg² of the band-limited rate in its first half,
-# then in its second (6 per axis)
+# per axis, over a candidate bias step's STEP_TAUS rest_tau (S_STEP_T): n, Σg, Σg² of the band-limited rate in its
+# first half, then in its second (6 per axis)
 S_STEP_S = 145
 STATE_SIZE = 163
 
@@ -643,10 +643,10 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
         for j in range(3):
             # a bias step (innovation beyond 3σ of the low-passed gyro for STEP_TAUS rest_tau s, the rate flat
             # over that time) resets that axis to its prior σ. Until it has lasted that long the sample teaches
-            # nothing: it may be the start of a motion
-            # the rest detector has not seen yet (it lags ~0.25 s behind a smooth start), and a reset there took
-            # the turning gyro for the bias (simulated flight: 0.3 °/s bias learned at rest, 0.005 °/s after
-            # the first 0.25 s of motion, and the 60-s inclination 1.4 -> 2.8° behind the motion gate)
+            # nothing: it may be the start of a motion the rest detector has not seen yet (it lags ~0.25 s behind
+            # a smooth start), and a reset there took the turning gyro for the bias (simulated flight: 0.3 °/s
+            # bias learned at rest, 0.005 °/s after the first 0.25 s of motion, and the 60-s inclination 1.4 ->
+            # 2.8° behind the motion gate)
             z = st[S_RG + j] - st[S_BIAS + j]
             if z * z > 9.0 * (st[S_P + 4 * j] + par[P_BIAS_REST] ** 2 / par[P_REST_TAU]):
                 st[S_STEP_T + j] += h
