@@ -219,7 +219,7 @@ def test_ros1_chunks_without_the_topic_are_skipped(tmp_path, monkeypatch):
 
 
 class _SpyPool:
-    """A stand-in for bagscan's helper thread that counts the halves handed to it (run in a real thread)."""
+    """A stand-in for bagscan's helper thread that counts the jobs handed to it (run in a real thread)."""
 
     def __init__(self, workers=1):
         from concurrent.futures import ThreadPoolExecutor
@@ -946,6 +946,34 @@ def test_sqlite_arrays_grow_past_the_first_block_estimate(tmp_path, monkeypatch)
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
+def test_sqlite_interior_pages_walked_or_declined(tmp_path):
+    """The messages table's interior pages walked to its leaves (every leaf once, in key order: the values
+    written), and a damaged interior page — another page type, a cell pointer past its page — declined (NotFast:
+    rosbags' reader then decides), not walked."""
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(29)
+    msgs, t, gyr, acc = imu_topic(rng, n=3000, rate=1000.0)
+    bag = write_bag(tmp_path / "i", "sqlite3-file", {"/imu": (IMU, msgs)})
+    ids, root, psize = bagscan._sqlite_meta(bag, "/imu")
+    mm, u8, leaves, *_ = bagscan.sqlite_leaves(bag, "/imu")
+    assert u8[(root - 1) * psize] == 5 and leaves.size > 20 and np.unique(leaves).size == leaves.size
+    assert all(u8[(p - 1) * psize] == 13 for p in leaves)
+    del u8
+    mm.close()
+    log = read_imu(bag)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+    raw = bytearray(bag.read_bytes())
+    for at, value, why in (((root - 1) * psize, 13 + 100, "not a table b-tree page"),
+                           ((root - 1) * psize + 12, 0xFF, "a cell pointer outside its page")):  # fmt: skip
+        bad = tmp_path / f"bad{at}.db3"
+        damaged = bytearray(raw)
+        damaged[at] = value
+        bad.write_bytes(bytes(damaged))
+        with pytest.raises(bagscan.NotFast, match=why):
+            bagscan.sqlite_leaves(bad, "/imu")
+
+
 def test_sqlite_pages_decoded_in_rounds_and_grown(tmp_path, monkeypatch):
     """sqlite3 bags decoded page block by page block in one compiled call per round: the strings first (the
     first blocks hold no Imu message), one leaf page per block, rounds of three pages, arrays grown from a low
@@ -978,12 +1006,12 @@ def test_sqlite_pages_decoded_in_rounds_and_grown(tmp_path, monkeypatch):
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
-@pytest.mark.parametrize("leaves,pages", [(1, 6), (2, 13)])  # pages per block and per round
-def test_sqlite_rounds_split_between_two_threads(tmp_path, monkeypatch, leaves, pages):
-    """sqlite3 rounds split in halves, the second decoded by a helper thread into the output after the first
-    half's cells (moved down where other topics' cells were among them): the Imu and MagneticField values of the
-    one-thread reading, exactly; log times out of order across the pages still read in rosbags' order (the order
-    across the halves is checked)."""
+@pytest.mark.parametrize("leaves,pages,slow", [(1, 6, "main"), (2, 7, "helper")])  # pages per block, per batch
+def test_sqlite_batches_taken_by_two_threads(tmp_path, monkeypatch, leaves, pages, slow):
+    """sqlite3 leaf pages in batches taken by whichever of two threads is free, each decoded into the output after
+    the cells of the batches before it (moved down where other topics' cells were among them): every page once,
+    most by the thread not slowed; the Imu and MagneticField values of the one-thread reading, exactly; log times
+    out of order across the pages still read in rosbags' order (the order across the batches is checked)."""
     import rosbags.highlevel
 
     from optinav.io import bagscan
@@ -1001,10 +1029,16 @@ def test_sqlite_rounds_split_between_two_threads(tmp_path, monkeypatch, leaves, 
     spy = _SpyPool()
     monkeypatch.setattr(bagscan, "_helper", lambda: spy)
     calls = _spy_decode(monkeypatch, "sqlite_decode")
+    seen = _spy_threads(monkeypatch, "sqlite_decode", slow=slow)
     two = read_table(bag)
-    assert calls == [600, 60] and spy.jobs >= 4
+    assert calls == [600, 60] and spy.jobs >= 2  # one per topic and pass (the output grown between)
     for k in one:
         assert np.array_equal(two[k], one[k], equal_nan=True), k
+    n = len(seen) // 2  # the Imu topic's batches, then the MagneticField's: the same pages
+    for topic in (seen[:n], seen[n:]):
+        got = [p for _, ps in topic for p in ps]
+        assert len(got) == len(set(got)) >= 20  # every leaf page once
+        assert sum(m != (slow == "main") for m, _ in topic) >= 0.6 * len(topic), (slow, [m for m, _ in topic])
     assert np.array_equal(two["t"], t) and np.array_equal(two["gx"], gyr[:, 0])
     # log times permuted: declined by the order checks, read in rosbags' order
     monkeypatch.setattr(rosbags.highlevel, "AnyReader", any_reader)
@@ -1039,12 +1073,12 @@ def _imu_mag_sqlite_in_small_rounds(tmp_path, monkeypatch, msgs, mags, pages: in
     return next((tmp_path / "s").glob("*.db3"))
 
 
-def test_sqlite_halves_placed_by_cell_counts_equal_one_thread(tmp_path, monkeypatch):
-    """A sqlite3 round's second half, decoded by the helper thread after the first half's cells and moved down
-    onto its rows: with Imu and MagneticField messages interleaved in bursts (leaf pages holding both topics'
-    cells, in varying shares), odd counts, and the first pages without Imu messages (the estimate too low: the
-    output grows mid-read and a round's rest is decoded in one thread), the arrays of the one-thread reading,
-    exactly, and the values written."""
+def test_sqlite_batches_placed_by_cell_counts_equal_one_thread(tmp_path, monkeypatch):
+    """sqlite3 batches of leaf pages, each decoded by either thread after the cells of the batches before it and
+    moved down onto its rows: with Imu and MagneticField messages interleaved in bursts (leaf pages holding both
+    topics' cells, in varying shares), odd counts, and the first pages without Imu messages (the estimate too low:
+    the batches past the reservation are decoded after the others in one thread, the output grown), the arrays of
+    the one-thread reading, exactly, and the values written."""
     import optinav.io.rosbag as rb
 
     from optinav.io import bagscan
@@ -1064,8 +1098,10 @@ def test_sqlite_halves_placed_by_cell_counts_equal_one_thread(tmp_path, monkeypa
     grown = []
     resize = rb._Decoder._resize
     monkeypatch.setattr(rb._Decoder, "_resize", lambda self, n: grown.append(n) or resize(self, n))
+    seen = _spy_threads(monkeypatch, "sqlite_decode")
     two = read_table(bag)
-    assert calls == [1001, 300] and spy.jobs >= 8 and len(grown) >= 3  # the first reservation, then growth
+    assert calls == [1001, 300] and spy.jobs >= 2 and len(grown) >= 3  # the first reservation, then growth
+    assert sum(not m for m, _ in seen) >= 2  # the helper took batches
     for k in one:
         assert np.array_equal(two[k], one[k], equal_nan=True), k
     log = read_imu(bag)
@@ -2111,10 +2147,10 @@ class _LatePool:
         return fut
 
 
-def test_sqlite_round_not_started_by_the_helper_is_decoded_here(tmp_path, monkeypatch):
-    """A sqlite3 round's second half that the helper thread has not started when this thread is done with the
-    first (its CPU busy with another process) is decoded by this thread instead of waited for: the helper runs
-    no round, and the values are those of one thread (Imu and MagneticField interleaved, odd counts)."""
+def test_sqlite_batches_not_started_by_the_helper_are_decoded_here(tmp_path, monkeypatch):
+    """sqlite3 batches that the helper thread has not started taking when this thread is done with them all (its
+    CPU busy with another process) are decoded by this thread, the helper not waited for: it runs no batch, and
+    the values are those of one thread (Imu and MagneticField interleaved, odd counts)."""
 
     from optinav.io import bagscan
 

@@ -459,6 +459,34 @@ def sqlite_walk(buf, pages, psize, usable, ids, off, size, logt, last):
 
 
 @numba.njit(**_NJ)
+def sqlite_children(buf, pages, psize, out):
+    """The child page numbers of the table b-tree interior ``pages`` (numbers from 1; type 5, a 12-byte header) in
+    key order — each cell's left child (its first 4 bytes, big-endian), then the page's right-most pointer (header
+    bytes 8-11) — written to ``out`` from 0. Returns their count; −1 for a page outside ``buf`` or of another type,
+    −2 for a cell pointer outside its page, −3 when ``out`` is too small."""
+    k = np.int64(0)
+    for pg in pages:
+        base = (pg - 1) * psize
+        if pg < 1 or base + psize > buf.size or buf[base] != 5:
+            return np.int64(-1)
+        cnt = (np.int64(buf[base + 3]) << 8) | buf[base + 4]
+        if 12 + 2 * cnt > psize:
+            return np.int64(-2)
+        if k + cnt + 1 > out.size:
+            return np.int64(-3)
+        for c in range(cnt):
+            q = base + 12 + 2 * c
+            ptr = (np.int64(buf[q]) << 8) | buf[q + 1]
+            if ptr < 12 + 2 * cnt or ptr + 4 > psize:
+                return np.int64(-2)
+            out[k] = _be(buf, base + ptr, 4)
+            k += 1
+        out[k] = _be(buf, base + 8, 4)
+        k += 1
+    return k
+
+
+@numba.njit(**_NJ)
 def sqlite_cells(buf, pages, psize):
     """The cells of the table b-tree leaf ``pages`` (numbers from 1) of ``psize`` bytes by each page header's cell
     count (bytes 3-4, big-endian), as :func:`sqlite_walk` reads it: at least the messages the walk finds there (as
@@ -653,6 +681,7 @@ def warm() -> None:
                   np.zeros((1, 3)), np.zeros((1, 3)), i64, 0)  # fmt: skip
     sqlite_walk(buf, i64[:0], 64, 64, i64, i64, i64, i64, i64[:2])
     sqlite_cells(buf, i64[:0], 64)
+    sqlite_children(buf, i64[:0], 64, i64)
     v = np.zeros((1, 3))
     ros1_decode(
         buf, i64[:0], 64, i64[:0], i64[:0], i64, i64, i64, i64, np.zeros(7, dtype=np.int64), np.zeros(1), v, v, i64

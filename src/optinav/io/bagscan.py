@@ -440,7 +440,7 @@ def mcap_decode(path: Path, topic: str, layout, out: tuple) -> bool:
     if lay is None:
         return False
 
-    def run(a: int, b: int, buf: tuple) -> bool:
+    def run(a: int, b: int, buf: tuple, _) -> bool:
         # rows row0[a]:row0[b], no more: the kernel stops with ROOM past them; a chunk with a CRC is checked
         # right before it is walked (its bytes then in cache)
         for c, d in ((i, i + 1) for i in range(a, b)) if checked else ((a, b),):
@@ -454,7 +454,7 @@ def mcap_decode(path: Path, topic: str, layout, out: tuple) -> bool:
                 return False
         return True
 
-    return _rounds(mm, pos, np.append(pos[1:], u8.size), run, scratch)
+    return _rounds(mm, _cuts(pos, np.append(pos[1:], u8.size)), run, scratch)
 
 
 def _mcap_crcs(fd: int, pos: np.ndarray) -> np.ndarray | None:
@@ -766,9 +766,9 @@ def _ros1_records(u8: np.ndarray, pos: int, end: int, conns: np.ndarray, rows: _
     return rows.block(u8, k)
 
 
-#: bytes of chunks decoded per batch of :func:`_rounds` (each thread takes the next batch when it is done with one),
-#: per round of :func:`sqlite_decode` (half by each of two threads): the map's pages are released after each, so the
-#: resident set holds about one round of the file
+#: bytes of chunks (or sqlite3 leaf pages) decoded per batch of :func:`_rounds` (each thread takes the next batch
+#: when it is done with one): the map's pages are released after each, so the resident set holds about a batch of
+#: the file per thread
 _ROUND = 8 << 20
 
 
@@ -805,60 +805,76 @@ def ros1_decode(path: Path, idx: dict, conns: np.ndarray, layout, out: tuple) ->
     if lay is None:
         return False
 
-    def run(a: int, b: int, buf: tuple) -> bool:
+    def run(a: int, b: int, buf: tuple, _) -> bool:
         got = kern.ros1_decode(u8, pos[a:b], end, expect[a:b], row0[a:b], conns, *buf, lay, stamp, va, vb, logt)
         return got[0] == kern.OK
 
     # round boundaries by the chunks' offsets (a chunk and its index records lie between two offsets)
-    return _rounds(mm, pos, np.append(pos[1:], end), run, scratch)
+    return _rounds(mm, _cuts(pos, np.append(pos[1:], end)), run, scratch)
 
 
-def _rounds(mm, pos: np.ndarray, nxt: np.ndarray, run, scratch: list) -> bool:
-    """Decode the chunks at ``pos`` (each ending before ``nxt``) in batches of about ``_ROUND`` bytes taken in
-    turn by this thread and, when there is one, a helper thread (the other ``scratch``): whichever is free takes
-    the next batch, so a thread slowed by other work on the machine decodes fewer and neither waits for the other
-    between batches. ``run(a, b, scratch)`` decodes chunks ``a:b`` into their own rows (True when they are done
-    right). Each batch's pages are unmapped after it."""
-    import threading
-    from concurrent.futures import wait
-
+def _cuts(pos: np.ndarray, nxt: np.ndarray) -> list[tuple[int, int, int, int]]:
+    """Batches of about ``_ROUND`` bytes of the chunks at ``pos`` (increasing; each ending before ``nxt``) for
+    :func:`_rounds`: (first chunk, chunk after the last, first byte, byte after the last)."""
     cuts = [0]
     while cuts[-1] < pos.size:
         a = cuts[-1]
         cuts.append(max(int(np.searchsorted(pos, pos[a] + _ROUND, side="left")), a + 1))
-    batches, lock, failed = iter(zip(cuts[:-1], cuts[1:])), threading.Lock(), []
+    return [(a, b, int(pos[a]), int(nxt[b - 1])) for a, b in zip(cuts[:-1], cuts[1:])]
+
+
+def _rounds(mm, batches: list, run, scratch: list, claim=None) -> bool:
+    """Decode ``batches`` = [(a, b, first byte, byte after the last)] in turn by this thread and, when there is
+    one, a helper thread (the other ``scratch``): whichever is free takes the next batch, so a thread slowed by
+    other work on the machine decodes fewer and neither waits for the other between batches. ``run(a, b, scratch,
+    token)`` decodes units ``a:b`` into their own rows (True when they are done right); ``claim(a, b)``, called by
+    the thread that took the batch (the batches are taken in order), returns its token (its first row) or None to
+    hand out no more batches (the caller then decodes the rest). Each batch's bytes are unmapped after it."""
+    import threading
+    from concurrent.futures import wait
+
+    todo, lock, failed = iter(batches), threading.Lock(), []
 
     def work(buf: tuple) -> None:
+        nonlocal todo
         while not failed:
             with lock:
-                a, b = next(batches, (0, 0))
+                a, b, lo, hi = next(todo, (0, 0, 0, 0))
             if a == b:
+                return
+            token = None if claim is None else claim(a, b)
+            if claim is not None and token is None:
+                with lock:
+                    todo = iter(())
                 return
             ok = False
             try:
-                ok = run(a, b, buf)
+                ok = run(a, b, buf, token)
             finally:  # a batch that fails or raises stops the other thread too
                 if not ok:
                     failed.append((a, b))
             if not ok:
                 return
-            _release(mm, int(pos[a]), int(nxt[b - 1]))  # decoded by now
+            _release(mm, lo, hi)  # decoded by now
 
     pool = _helper()
-    job = pool.submit(work, scratch[1]) if pool is not None and len(cuts) > 2 else None
+    job = pool.submit(work, scratch[1]) if pool is not None and len(batches) > 1 else None
     try:
         work(scratch[0])
     finally:
-        if job is not None:
-            wait([job])  # never leave the helper reading a map this returns from
-    if job is not None:
+        # a helper that has not started (its CPU busy with other work) is not waited for; one that has is: never
+        # leave it reading a map this returns from
+        idle = job is None or job.cancel()
+        if not idle:
+            wait([job])
+    if not idle:
         job.result()  # its exception, if any
     return not failed
 
 
 def _helper():
     """The readers' helper threads (:func:`optinav.io._pool.helper`): :func:`_rounds` hands batches to one,
-    :func:`sqlite_decode` one half of each round, :func:`_ahead` inflates chunks in all; None on one CPU."""
+    :func:`_ahead` inflates chunks in all; None on one CPU."""
     from optinav.io._pool import helper
 
     return helper()
@@ -871,27 +887,6 @@ def _workers() -> int:
 
 
 # --- ROS 2 sqlite3 ----------------------------------------------------------------------------------------------
-
-
-def _be(u8: np.ndarray, pos: np.ndarray, size: int) -> np.ndarray:
-    """Unsigned big-endian integers of ``size`` bytes (2 or 4: page headers, cell pointers, page numbers) at
-    ``pos``, as int64."""
-    if pos.size == 0:
-        return np.zeros(pos.shape, dtype=np.int64)
-    return np.ascontiguousarray(windows(u8, pos, size)).view(f">u{size}")[:, 0].astype(np.int64)
-
-
-def _cells(u8: np.ndarray, pages: np.ndarray, psize: int, hsize: int) -> tuple[np.ndarray, np.ndarray]:
-    """(cells per page, byte offset in the file of each cell) of the b-tree ``pages``, cells in key order (the
-    cell pointer array after the ``hsize``-byte page header)."""
-    base = (pages - 1) * psize
-    cnt = _be(u8, base + 3, 2)
-    pg = np.repeat(np.arange(pages.size), cnt)
-    k = np.arange(pg.size) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    ptr = _be(u8, base[pg] + hsize + 2 * k, 2)
-    if np.any(ptr < hsize + 2 * cnt[pg]) or np.any(ptr >= psize):
-        raise NotFast("a cell pointer outside its page")
-    return cnt, base[pg] + ptr
 
 
 def _connect(path: Path):
@@ -948,6 +943,8 @@ def sqlite_leaves(path: Path, topic: str) -> tuple:
     """(mmap, its bytes, the leaf pages of ``messages`` in rowid order, page size, usable bytes per page, the
     topic's ids) of a rosbag2 sqlite3 file; :class:`NotFast` when the file is not one the scanner reads (see
     :func:`sqlite_blocks`)."""
+    from optinav.io import _bagkernels as kern
+
     if sys.byteorder != "little":
         raise NotFast("a big-endian host: the walkers load little-endian words")
     wal = path.with_name(path.name + "-wal")
@@ -968,156 +965,131 @@ def sqlite_leaves(path: Path, topic: str) -> tuple:
             raise NotFast("a page number outside the file")
         if u8[(level[0] - 1) * psize] == 13:  # the leaves: the walker checks each page's type
             break
-        head = _page_heads(mm, u8, level, psize)
-        if not np.all(head[:, 0] == 5):
-            raise NotFast("not a table b-tree page")
-        # each page's children: the left child of every cell in key order, then the right-most pointer
-        cnt, cell = _cells(u8, level, psize, 12)
-        right = np.cumsum(cnt + 1) - 1
-        nxt = np.empty(cell.size + level.size, dtype=np.int64)
-        left = np.ones(nxt.size, dtype=bool)
-        left[right] = False
-        nxt[left] = _be(u8, cell, 4)
-        nxt[right] = _be(u8, (level - 1) * psize + 8, 4)
-        level = nxt
+        # each page's children (the left child of every cell in key order, then the right-most pointer), in
+        # slices whose pages are unmapped again after each: reading every interior page would otherwise map much
+        # of the file at once where the kernel caches it in large folios
+        nxt, n = np.empty(level.size * ((psize - 12) // 6 + 1), dtype=np.int64), 0
+        for i in range(0, level.size, 4096):
+            p = level[i : i + 4096]
+            k = kern.sqlite_children(u8, p, psize, nxt[n:])
+            _release(mm, int(p.min() - 1) * psize, int(p.max()) * psize)
+            if k == -1:
+                raise NotFast("not a table b-tree page")
+            if k < 0:
+                raise NotFast("a cell pointer outside its page")
+            n += k
+        level = nxt[:n].copy()
     return mm, u8, level, psize, usable, np.array(sorted(ids), dtype=np.int64)
 
 
 def sqlite_decode(files: list[Path], topic: str, layout, reserve) -> int | None:
     """Decode every message of ``topic`` in the rosbag2 sqlite3 ``files`` (in turn) by
-    :func:`optinav.io._bagkernels.sqlite_decode`: leaf pages in rounds of about ``_ROUND`` bytes, ``_LEAVES``
-    pages walked and gathered at a time, each round's pages unmapped after it. ``layout(first message bytes)``:
-    the gather layout or None; ``reserve(rows kept, rows needed)``: the output (stamps, log times ns, triads a,
-    triads b) with room for ``rows needed``, its first ``rows kept`` rows kept. The number of messages, or None
-    — nothing to trust in the output — for anything the blocks (:func:`sqlite_blocks`) handle otherwise (other
-    layouts, rowids or log times out of order, pages that do not parse; and a file without the topic's
-    messages)."""
-    from concurrent.futures import wait
+    :func:`optinav.io._bagkernels.sqlite_decode`: leaf pages in batches of about ``_ROUND`` bytes taken by
+    whichever of two threads is free (:func:`_rounds`), ``_LEAVES`` pages walked and gathered at a time, each
+    batch's pages unmapped after it. A batch is decoded from the row after the cells of the batches before it
+    (their page headers' counts, summed in batch order as each is taken: at least their messages, as many when
+    every cell is the topic's), its rows then moved down where other topics' cells came before; the order across
+    batches (rowids, log times) is checked after. ``layout(first message bytes)``: the gather layout or None;
+    ``reserve(rows kept, rows needed)``: the output (stamps, log times ns, triads a, triads b) with room for ``rows
+    needed``, its first ``rows kept`` rows kept (when a batch would pass it, the batches taken so far are
+    finished, the output grown at the cells per page so far, and the rest taken alike). The number of messages, or None — nothing to trust in the output — for
+    anything the blocks (:func:`sqlite_blocks`) handle otherwise (other layouts, rowids or log times out of order,
+    pages that do not parse; and a file without the topic's messages)."""
+    import threading
 
     from optinav.io import _bagkernels as kern
 
     row, lay = 0, None
+    last = np.array([-1, np.iinfo(np.int64).min], dtype=np.int64)
     for f in files:
         try:
             mm, u8, leaves, psize, usable, ids = sqlite_leaves(f, topic)
         except NotFast:
             return None
-        scratch = tuple(np.empty(_LEAVES * ((psize - 8) // 6 + 1), dtype=np.int64) for _ in range(3))
-        last = np.array([-1, np.iinfo(np.int64).min], dtype=np.int64)
+        scratch = [tuple(np.empty(_LEAVES * ((psize - 8) // 6 + 1), dtype=np.int64) for _ in range(3)) for _ in "ab"]
         # the first block with messages: the layout (from the first file's first message) and an estimate of the
         # rows (its messages per page)
         probe, k, b, cells = last.copy(), 0, 0, 0
         while k == 0 and b < leaves.size:
-            status, c, k = kern.sqlite_walk(u8, leaves[b : b + _LEAVES], psize, usable, ids, *scratch, probe)
+            status, c, k = kern.sqlite_walk(u8, leaves[b : b + _LEAVES], psize, usable, ids, *scratch[0], probe)
             if status != kern.OK:
                 return None
             b, cells = b + _LEAVES, cells + c
         if k == 0:
             return None
         if lay is None:
-            off, size = scratch[0], scratch[1]
+            off, size = scratch[0][0], scratch[0][1]
             lay = layout(bytes(u8[off[0] : off[0] + size[0]]))
             if lay is None:
                 return None
+        per = max(_ROUND // psize, _LEAVES)
         est = k / min(leaves.size, b)  # messages per page
-        # room for the estimate and one round's cells more: a round's halves are placed by their cells' count
-        slack = int(np.ceil(cells / min(leaves.size, b) * max(_ROUND // psize, _LEAVES)))
+        # room for the estimate and one batch's cells more: a batch is placed by its cells' count
+        slack = int(np.ceil(cells / min(leaves.size, b) * per))
         out = reserve(row, row + int(np.ceil(est * leaves.size)) + slack + 16)
-        done, per, pool, scratch2 = _Unmap(mm), max(_ROUND // psize, _LEAVES), _helper(), None
-        b = 0
-        while b < leaves.size:
-            pages = leaves[b : b + per]
-            half = pages.size // 2 // _LEAVES * _LEAVES
-            if pool is None or half < _LEAVES:
-                row, out, took = _sqlite_serial(u8, pages, psize, usable, ids, scratch, last, lay, reserve, out, row)
-                if took is None:
+        cut = np.arange(0, leaves.size, per)
+        lo, hi = (np.minimum.reduceat(leaves, cut) - 1) * psize, np.maximum.reduceat(leaves, cut) * psize
+        spans = [(i, min(i + per, leaves.size), x, y) for i, x, y in zip(cut.tolist(), lo.tolist(), hi.tolist())]
+        seen = [b, cells]  # pages and cells counted so far: the rate the output grows by
+        while spans:
+            cap, taken, done = min(a.shape[0] for a in out), {}, {}
+            # each batch's first row: the first batch's, then the one before's plus its cells, as their counts come
+            # in (each thread counts the batch it took, reading its pages first); ``front``: the first batch whose
+            # place is not known yet, ``halt``: the first one that does not fit (or has a page outside the file)
+            after = dict(zip([a for a, *_ in spans], [a for a, *_ in spans[1:]] + [leaves.size]))
+            cond, counts, front, halt = threading.Condition(), {}, [spans[0][0]], [leaves.size]
+            starts = {spans[0][0]: row}
+
+            def claim(i: int, j: int):
+                c = int(kern.sqlite_cells(u8, leaves[i:j], psize))
+                with cond:
+                    counts[i] = c
+                    while front[0] in counts and front[0] < halt[0]:
+                        f = front[0]
+                        if counts[f] < 0 or starts[f] + counts[f] > cap:  # decoded in a later pass, if at all
+                            halt[0] = f
+                            break
+                        starts[after[f]], front[0] = starts[f] + counts[f], after[f]
+                    cond.notify_all()
+                    cond.wait_for(lambda: i < front[0] or i >= halt[0])
+                    if i >= halt[0]:
+                        return None
+                    taken[i] = (starts[i], c)
+                    return starts[i]
+
+            def run(i: int, j: int, buf: tuple, at: int) -> bool:
+                mine = np.array([-1, np.iinfo(np.int64).min], dtype=np.int64)
+                lim = slice(0, at + taken[i][1])  # the batch's own rows, no more
+                status, _, end, _ = kern.sqlite_decode(u8, leaves[i:j], psize, usable, ids, _LEAVES, *buf, mine,
+                                                       lay, out[0][lim], out[2][lim], out[3][lim], out[1][lim], at)  # fmt: skip
+                done[i] = (end - at, mine)
+                return status == kern.OK
+
+            if not _rounds(mm, spans, run, scratch, claim):
+                return None
+            for i, j, _, _ in spans[: len(taken)]:
+                # the order across batches: the first page's rowids after the batch before's, and the log times
+                at, (n, mine) = taken[i][0], done[i]
+                probe = last.copy()
+                if kern.sqlite_walk(u8, leaves[i : i + 1], psize, usable, ids, *scratch[0], probe)[0] != kern.OK:
                     return None
-                pages = pages[:took]
-            else:
-                # the second half decoded by a helper thread straight into the output from the row after the first
-                # half's cells (its page headers' counts, read by the helper first: at least its messages, as many
-                # when every cell is the topic's), then moved down onto the first half's last row if that holds
-                # fewer; no copy of a single-topic bag's rows. The order across the halves is checked after.
-                if scratch2 is None:
-                    scratch2 = tuple(np.empty_like(a) for a in scratch)
-                last2 = np.array([-1, np.iinfo(np.int64).min], dtype=np.int64)
-                job = pool.submit(_sqlite_second_half, u8, pages, half, psize, usable, ids, scratch2, last2, lay,
-                                  out, row)  # fmt: skip
-                try:
-                    status, at, r1, _ = kern.sqlite_decode(u8, pages[:half], psize, usable, ids, _LEAVES, *scratch,
-                                                           last, lay, out[0], out[2], out[3], out[1], row)  # fmt: skip
-                finally:
-                    # a helper that has not started (its CPU busy with other work) is not waited for
-                    idle = job.cancel()
-                    if not idle:
-                        wait([job])  # never leave the helper reading a map this returns from
-                lim, (status2, _, r2, _) = (row, (kern.ROOM, 0, row, 0)) if idle else job.result()
-                if status2 == kern.ROOM and status in (kern.OK, kern.ROOM):
-                    # the helper decoded nothing (not started, or the output is short of the round's cells):
-                    # the rest of the round decoded here, the output grown as needed
-                    row, out, took = _sqlite_serial(
-                        u8, pages[at:], psize, usable, ids, scratch, last, lay, reserve, out, r1
-                    )
-                    if took is None:
-                        return None
-                    pages = pages[: at + took]
-                elif status != kern.OK or status2 != kern.OK or r1 > lim:
+                if n and out[1][at] < last[1]:
                     return None
-                else:
-                    probe = last.copy()  # the rowids across the halves, and the log times
-                    if kern.sqlite_walk(u8, pages[half : half + _LEAVES], psize, usable, ids, *scratch, probe)[0]:
-                        return None
-                    n = r2 - lim
-                    if n and out[1][lim] < last[1]:
-                        return None
-                    if n and lim > r1:  # other topics' cells among the first half's: close the gap
-                        for arr in {id(a): a for a in out}.values():  # one triad (MagneticField): one array
-                            arr[r1 : r1 + n] = arr[lim : lim + n]
-                    row = r1 + n
-                    last[0], last[1] = max(last[0], last2[0]), max(last[1], last2[1])
-            if pages.size:
-                done.add(int(pages.min() - 1) * psize, int(pages.max()) * psize)  # decoded by now
-            b += pages.size
-        done.flush()
+                if n and at > row:  # other topics' cells in the batches before: onto the rows after theirs
+                    for arr in {id(a): a for a in out}.values():  # one triad (MagneticField): one array
+                        arr[row : row + n] = arr[at : at + n]
+                row += n
+                last[0], last[1] = mine[0], max(last[1], mine[1])
+                seen[0], seen[1] = seen[0] + j - i, seen[1] + taken[i][1]
+            spans = spans[len(taken) :]
+            if spans:  # past the reservation: the output grown for the next batch and the rest at the rate so far
+                i, j = spans[0][:2]
+                c = int(kern.sqlite_cells(u8, leaves[i:j], psize))
+                if c < 0:
+                    return None
+                rest = int(np.ceil(seen[1] / max(seen[0], 1) * (leaves.size - j)))
+                out = reserve(row, row + c + rest + slack + 16)
     return row
-
-
-def _sqlite_second_half(u8, pages, half, psize, usable, ids, scratch, last, lay, out, row) -> tuple:
-    """The helper thread's part of a round of :func:`sqlite_decode`: (the row its messages start at = ``row`` +
-    the cells of ``pages[:half]``, :func:`optinav.io._bagkernels.sqlite_decode`'s result for ``pages[half:]``
-    decoded from there; ROOM without decoding when the output is short of that row and the half's cells, MALFORMED
-    for a page outside the file)."""
-    from optinav.io import _bagkernels as kern
-
-    c1 = kern.sqlite_cells(u8, pages[:half], psize)
-    c2 = kern.sqlite_cells(u8, pages[half:], psize)
-    lim = row + c1
-    if c1 < 0 or c2 < 0:
-        return lim, (kern.MALFORMED, 0, lim, 0)
-    if lim + c2 > min(a.shape[0] for a in out):
-        return lim, (kern.ROOM, 0, lim, 0)
-    got = kern.sqlite_decode(
-        u8, pages[half:], psize, usable, ids, _LEAVES, *scratch, last, lay, out[0], out[2], out[3], out[1], lim
-    )
-    return lim, got
-
-
-def _sqlite_serial(u8, pages, psize, usable, ids, scratch, last, lay, reserve, out, row):
-    """:func:`optinav.io._bagkernels.sqlite_decode` of ``pages`` into ``out`` from ``row``, the output grown
-    (``reserve``) when it is full: (rows filled, output, pages done — None on any other status)."""
-    from optinav.io import _bagkernels as kern
-
-    took = 0
-    while took < pages.size:
-        status, at, row, _ = kern.sqlite_decode(
-            u8, pages[took:], psize, usable, ids, _LEAVES, *scratch, last, lay, out[0], out[2], out[3], out[1], row
-        )
-        took += at
-        if status == kern.ROOM:
-            out = reserve(row, 2 * out[0].size)
-        elif status != kern.OK:
-            return row, out, None
-    return row, out, took
 
 
 def _sqlite_leaves(mm, u8: np.ndarray, leaves: np.ndarray, psize: int, usable: int, ids: np.ndarray, rows):
@@ -1149,17 +1121,6 @@ def _sqlite_leaves(mm, u8: np.ndarray, leaves: np.ndarray, psize: int, usable: i
             yield out
         done.add(int(pages.min() - 1) * psize, int(pages.max()) * psize)  # decoded by now
     done.flush()
-
-
-def _page_heads(mm, u8: np.ndarray, pages: np.ndarray, psize: int) -> np.ndarray:
-    """(n, 5) first bytes (type, first freeblock, cell count) of each of ``pages``, read in slices unmapped
-    again after each: reading every leaf's header would otherwise map the whole file at once."""
-    out = np.empty((pages.size, 5), dtype=np.uint8)
-    for i in range(0, pages.size, 16384):
-        p = pages[i : i + 16384]
-        out[i : i + p.size] = windows(u8, (p - 1) * psize, 5)
-        _release(mm, int(p.min() - 1) * psize, int(p.max()) * psize)
-    return out
 
 
 def windows(u8: np.ndarray, start: np.ndarray, width: int) -> np.ndarray:

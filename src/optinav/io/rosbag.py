@@ -11,14 +11,15 @@ iteration when the scanners do not read the bag) and are decoded from their fixe
 gather (:mod:`optinav.io._bagkernels`; checked against ``rosbags``' own deserializer on the first message) into
 (n, 3) arrays; messages of another length are deserialized one by one. Plain ROS 1 bags, MCAP files and sqlite3
 files are decoded whole, each chunk (or block of pages) walked and gathered in one compiled call while its bytes
-are in cache, with a helper thread (batches of chunks to whichever thread is free, half of each round of sqlite3
-pages: :func:`_whole`, :func:`_sqlite_fused`); anything they decline
+are in cache, with a helper thread (batches of chunks or sqlite3 leaf pages to whichever thread is free:
+:func:`_whole`, :func:`_sqlite_fused`); anything they decline
 goes through the blocks. :func:`iter_bag` gives the same table in
 blocks of messages (two passes over the storage), so that memory does not grow with the bag.
 """
 
 from __future__ import annotations
 
+import copy
 import functools
 import itertools
 import sys
@@ -87,6 +88,7 @@ def load_bag(path, *, topic=None, only=None):
     _check_wal(path)
     wanted = _parse_topics(topic)
     AnyReader = _rosbags()
+    _metadata.cache_clear()  # parsed once in this read, and again in the next (the file may have changed)
     inflated = _inflated_load(path, topic)
     if inflated is not None:
         return inflated
@@ -160,12 +162,19 @@ def _bag_info(path: Path) -> tuple[dict, list[Path]] | None:
     if not path.is_dir():
         return None
     try:
-        from ruamel.yaml import YAML  # rosbags' own dependency
-
-        info = YAML(typ="safe").load((path / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+        info = copy.deepcopy(_metadata((path / "metadata.yaml").read_text())["rosbag2_bagfile_information"])
         return info, [path / Path(f).name for f in info["relative_file_paths"]]
     except Exception:  # noqa: BLE001 - a metadata file this does not read: rosbags' reader decides
         return None
+
+
+@functools.lru_cache(maxsize=8)
+def _metadata(text: str):
+    """A rosbag2 metadata.yaml's text parsed (safe YAML), once per text in a read (:func:`load_bag` clears it):
+    the read asks for it twice, and a parse costs 15 ms."""
+    from ruamel.yaml import YAML  # rosbags' own dependency
+
+    return YAML(typ="safe").load(text)
 
 
 def _inflated_load(path: Path, topic):
