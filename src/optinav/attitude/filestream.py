@@ -961,7 +961,7 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         r[:, c["q"]] = _if._fuse(col(r, "q"), w.q_b_n[::-1], share)
         r[:, c["bias"]] = -w.gyr_bias[::-1]
         r[:, c["flags"]] = np.column_stack(
-            [flags[:, 0] | w.rest[::-1], flags[:, 1], flags[:, 2] | _if.measured_used(w)[::-1]]
+            [flags[:, 0] | w.rest[::-1], flags[:, 1], flags[:, 2] & _if.measured_used(w)[::-1]]
         )
         store.write(s, r)
     n = b - a
