@@ -622,9 +622,8 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
         da += (a[j] - st[S_RA + j]) ** 2
     rg2 = par[P_REST_GYR] ** 2
     still = dg < rg2 and da < par[P_REST_ACC] ** 2
-    gl2 = st[S_RG] ** 2 + st[S_RG + 1] ** 2 + st[S_RG + 2] ** 2
     clip = par[P_BIAS_CLIP]
-    if still and gl2 < (clip + par[P_REST_GYR]) ** 2:
+    if still and abs(st[S_RG]) <= clip and abs(st[S_RG + 1]) <= clip and abs(st[S_RG + 2]) <= clip:
         st[S_REST_T] += h
     else:
         st[S_REST_T] = 0.0
