@@ -3349,24 +3349,72 @@ def _reads_at_rest(bias: np.ndarray, seconds: float) -> str:
     )
 
 
+def field_tells_turn(bins: np.ndarray, sums: np.ndarray, h: float, reading: np.ndarray) -> bool | None:
+    """Whether the magnetic field shows a rest ``reading`` (3,) rad/s of the gyro to be a steady turn (True) or a
+    bias (False). Between neighbouring magnetically quiet bins (:data:`MAG_QUIET`; ``bins``/``sums``/``h`` of
+    :func:`field_rate_sums`) the unit field steps as the body turns: by what the gyro less the reading predicts
+    plus c times what the reading alone predicts; c (least squares) is 1 for a turn, 0 for a bias. Told where c is
+    within :data:`FIELD_TELLS` of one of them and its standard error under a third of that; None otherwise (a field
+    that hardly turned with the reading, or a disturbed one)."""
+    if len(bins) == 0:
+        return None
+    both, m, w = bin_fields(bins, sums)
+    nm = _norm(m)
+    finite = np.isfinite(nm)
+    if np.count_nonzero(finite) < 30:
+        return None
+    with np.errstate(invalid="ignore"):
+        quiet = np.abs(nm / np.median(nm[finite]) - 1.0) < MAG_QUIET
+    pair = (np.diff(both) == 1) & quiet[1:] & quiet[:-1]
+    if np.count_nonzero(pair) < 30:
+        return None
+    u = m / np.where(quiet, nm, 1.0)[:, None]
+    r = np.asarray(reading, dtype=float)
+    du, less = _turns(u, w - r, pair, h)
+    _, alone = _turns(u, np.broadcast_to(r, w.shape), pair, h)
+    if du.shape[0] != alone.shape[0]:
+        return None
+    pp = float(np.sum(alone * alone))
+    if not pp > 0.0:
+        return None
+    c = float(np.sum((du - less) * alone)) / pp
+    res = (du - less) - c * alone
+    se = float(np.sqrt(np.sum(res * res) / max(res.size - 1, 1) / pp))
+    if se > FIELD_TELLS / 3.0:
+        return None
+    if abs(c - 1.0) < FIELD_TELLS:
+        return True
+    return False if abs(c) < FIELD_TELLS else None
+
+
+#: how near 1 (a turn) or 0 (a bias) the field's share of a rest reading must be (:func:`field_tells_turn`)
+FIELD_TELLS = 0.35
+
+
 def check_bias_range(
-    reading: tuple[np.ndarray, np.ndarray, float] | None, clip: float, method: str = "iframe", whole=None
+    reading: tuple[np.ndarray, np.ndarray, float] | None, clip: float, method: str = "iframe", whole=None, field=None
 ) -> None:
     """Refuse a gyro whose bias at rest exceeds on an axis the ``clip`` (rad/s) the estimator tracks (iframe's
     ``bias_clip``, default 2 °/s): the estimate is clipped there and the rest is drift — BROAD 02 with [0.06, -0.03,
     0.045] rad/s added ran at 5.9° inclination RMSE with exit 0, 0.39° with bias_clip raised. The rest reading is
     :func:`rest_reading` (None: no rest); beyond :data:`REST_GYR` about the vertical it may be a steady turn, judged by the whole log
     where ``whole()`` gives its bins (:func:`bias_not_turn`; BROAD 02 with 0.154 rad/s on z ran at 8.7° with exit
-    0), else left alone. The remedy names a clip that holds it (an option of iframe; gd/cg/qn/mekf have the bias
-    from iframe's front end at its default clip, ``method``)."""
+    0), else left alone. With a magnetometer (``field()``: the bins, sums and bin length of :func:`field_rate_sums`)
+    a reading about the vertical is a turn or a bias as the field tells (:func:`field_tells_turn`): a level body
+    turning steadily at 2.5–3.5 °/s (a boat, a turntable) was refused as a bias beyond the clip, which no rest
+    detector tells from one. The remedy names a clip that holds it (an option of iframe; gd/cg/qn/mekf have the
+    bias from iframe's front end at its default clip, ``method``)."""
     if reading is None:
         return
     bias, _, seconds = reading
     turn = _turn_or_bias(reading)
-    if turn and (whole is None or not bias_not_turn(*whole(), bias)):
+    told = None
+    if field is not None and _turn_like(bias, reading[1]) and float(np.max(np.abs(bias))) > clip:
+        told = field_tells_turn(*field(), bias)
+    if turn and told is not False and (whole is None or not bias_not_turn(*whole(), bias)):
         return
     worst = float(np.max(np.abs(bias)))
-    if worst <= clip:
+    if worst <= clip or told:
         return
     wanted = float(np.ceil(2.0 * worst * 100.0) / 100.0)
     option = f"--option bias_clip={wanted:g} (bias_clip={wanted:g} in Python)"

@@ -655,7 +655,9 @@ def estimate(
         # a bias beyond what the unit checks allow for is taken off for them: it is judged as a bias just after
         check_imu(gyr, acc, dts, rest=rest_offset(reading))
         if clip is not None:
-            check_bias_range(reading, clip, method, whole=lambda: whole_log_bins(gyr, acc, dts))
+            rows = scale_bin_rows(step)
+            field = None if mag is None else lambda: (*field_rate_sums(gyr, mag, rows), rows * step)
+            check_bias_range(reading, clip, method, whole=lambda: whole_log_bins(gyr, acc, dts), field=field)
         else:
             check_untracked_bias(reading, method)
         check_frame(acc, frame, dt=step)

@@ -253,7 +253,8 @@ class StreamChecks:
             if steep:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
         if self.bias_clip is not None:  # after the units and the clipping, as estimate() judges it after check_imu
-            _c.check_bias_range(self._reading, self.bias_clip, self.method, self._long_bins)
+            field = self._turn_sums if self._scale_sums else None
+            _c.check_bias_range(self._reading, self.bias_clip, self.method, self._long_bins, field)
         else:
             _c.check_untracked_bias(self._reading, self.method)
         _c.check_frame(None, frame, self._acc_sum, self.median_dt, self._level)
