@@ -3053,6 +3053,27 @@ def offset_heading(b: np.ndarray, bins, acc_sums, field_sums, counts) -> float:
     return float(np.sqrt(np.mean(turn**2))) if turn.size else float("nan")
 
 
+def offset_tolerated(b: np.ndarray, mag: np.ndarray, turns, tilt) -> bool:
+    """Whether an online estimate uses the field as measured, fitting no offset from past samples, beside the offset
+    ``b`` (3,, the field's unit) that the whole recording's fit (:func:`check_mag`) shows: where it turns the heading
+    by under :data:`MAG_UNSEEN_HEADING` (:func:`offset_heading` on ``tilt``, :func:`mag_sums` of the log), as an
+    offset no fit sees is tolerated; and so does the sphere fitted along all three axes to the rows ``mag`` (n, 3)
+    and the offset the turning steps show (:func:`moving_offset` of ``turns``, :func:`field_rate_sums` and the bin's
+    s): ``b`` has no part along an axis the body turned little about, and a residual of 4.5 µT beside 30 µT fitted
+    so (2.1° of heading) turned the heading by 7.7° (8.1° RMSE with exit 0). The fit from past samples leaves the
+    field unused until it passes its gates, and never passes them where the motion spreads the norm too little:
+    simulated residuals of 2-8 µT beside 28-57 µT that the raw field ran at 0.9-2.6° were refused, or, the fit
+    passing late, ran at 54-126° with exit 0 (the heading the gyro's from the start until then)."""
+    m = mag[np.all(np.isfinite(mag), axis=1)]
+    seen = [np.asarray(b, float)]
+    if m.shape[0] >= 100:
+        seen.append(_sphere_fit(m, np.eye(3))[0])
+    moving = moving_offset(*turns)
+    if moving is not None:
+        seen.append(moving[2])
+    return all(offset_heading(v, *tilt[:4]) < MAG_UNSEEN_HEADING for v in seen)
+
+
 def offset_unseen_error(
     pieces: list[tuple[int, np.ndarray | None, float]],
     bins: np.ndarray,

@@ -58,6 +58,7 @@ from optinav.attitude.checks import (
     bin_fields,
     offset_change_error,
     offset_held_error,
+    offset_tolerated,
     offset_unseen_error,
     offset_pieces,
     online_fit_failed,
@@ -672,12 +673,16 @@ def estimate(
                 checked = None if got is None else got[0]
             elif mag_hard_iron is None:
                 turned = body_turned(*turns)
-                b = check_mag(mag[:: mag_fit_stride(mag.shape[0])], offline, online=method == "iframe", turned=turned)
-                online_fit = b is not None and not offline
+                strided = mag[:: mag_fit_stride(mag.shape[0])]
+                b = check_mag(strided, offline, online=method == "iframe", turned=turned)
+                # online, an offset that turns the heading little is used as measured from the start (the checks
+                # take it off, as they take off the one fitted from past samples)
+                tolerated = not offline and b is not None and offset_tolerated(b, strided, turns, mag_sums(acc, mag))
+                online_fit = b is not None and not offline and not tolerated
                 if b is None:  # an offset the recording does not turn every way about
                     b = check_turning_offset(*turns, offline)
-                mag_hard_iron = None if online_fit else b
-                checked, fitted = b, b is not None
+                mag_hard_iron = None if online_fit or tolerated else b
+                checked, fitted = b, b is not None and not tolerated
             else:
                 check_mag(mag[:: mag_fit_stride(mag.shape[0])], given=mag_hard_iron, turned=body_turned(*turns))
                 check_turning_offset(*turns, given=mag_hard_iron)

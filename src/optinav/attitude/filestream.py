@@ -1224,8 +1224,11 @@ def stream_attitude(
     if src.mag and hard_iron is None and (o.offline or method == "iframe"):
         hard_iron = checks.hard_iron(online=not o.offline)
         fitted = hard_iron is not None
-        # online the offset the whole log shows is fitted from past samples instead (as estimate() does)
-        online_fit, hard_iron = (fitted, None) if not o.offline else (False, hard_iron)
+        # online the offset the whole log shows is fitted from past samples instead, or, turning the heading
+        # little, the field used as measured (as estimate() does)
+        online_fit, hard_iron = (
+            (fitted and not checks.hard_iron_tolerated, None) if not o.offline else (False, hard_iron)
+        )
     checks.offline = o.offline
     checks.hard_iron_judged = bool(src.mag) and o.mag_hard_iron is None and not o.offline and method == "iframe"
     checks.given_hard_iron = None if o.mag_hard_iron is None else np.asarray(o.mag_hard_iron, float)

@@ -120,7 +120,11 @@ class StreamChecks:
         None when the field shows none."""
         if not self._mag:
             return None
-        b = _c.check_mag(np.concatenate(self._mag), offline=True, turned=self._turned())
+        mag = np.concatenate(self._mag)
+        b = _c.check_mag(mag, offline=True, turned=self._turned())
+        if online and b is not None and self._scale_sums and self._mag_sums:
+            msums = [np.concatenate(x) for x in zip(*self._mag_sums)]
+            self.hard_iron_tolerated = _c.offset_tolerated(b, mag, self._turn_sums(), msums)
         if b is None and self._scale_sums:  # online refused: the fit from past samples needs every axis turned
             b = _c.check_turning_offset(*self._turn_sums(), offline=not online)
         self.fitted_hard_iron = b
@@ -128,6 +132,9 @@ class StreamChecks:
 
     #: the offset :meth:`hard_iron` fitted (None: none, or not asked): the later checks judge the field less it
     fitted_hard_iron: np.ndarray | None = None
+    #: online, the offset :meth:`hard_iron` fitted turns the heading so little that the estimate uses the field as
+    #: measured, fitting none from past samples (:func:`checks.offset_tolerated`); the checks still take it off
+    hard_iron_tolerated = False
 
     def _turned(self) -> float:
         """The body's turning (rad, :func:`checks.body_turned`); inf when the gyro-scale sums were not kept."""
