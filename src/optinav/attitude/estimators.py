@@ -46,6 +46,7 @@ from optinav.attitude.checks import (
     hard_iron,
     mag_fit_stride,
     scale_bin_rows,
+    small_offset,
     still_sums,
     whole_log_bins,
     check_untracked_bias,
@@ -681,6 +682,8 @@ def estimate(
                 online_fit = b is not None and not offline and not tolerated
                 if b is None:  # an offset the recording does not turn every way about
                     b = check_turning_offset(*turns, offline)
+                if b is None and offline:  # a residual under those fits' gates that the turning shows
+                    b = small_offset(*turns, lambda: mag_sums(acc, mag))
                 mag_hard_iron = None if online_fit or tolerated else b
                 checked, fitted = b, b is not None and not tolerated
             else:

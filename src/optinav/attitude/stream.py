@@ -127,6 +127,8 @@ class StreamChecks:
             self.hard_iron_tolerated = _c.offset_tolerated(b, mag, self._turn_sums(), msums)
         if b is None and self._scale_sums:  # online refused: the fit from past samples needs every axis turned
             b = _c.check_turning_offset(*self._turn_sums(), offline=not online)
+        if b is None and not online and self._scale_sums and self._mag_sums:  # as estimate() offline
+            b = _c.small_offset(*self._turn_sums(), lambda: [np.concatenate(x) for x in zip(*self._mag_sums)])
         self.fitted_hard_iron = b
         return b
 
