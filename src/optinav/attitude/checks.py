@@ -2995,9 +2995,11 @@ def moving_offset(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[int, in
     that the field turns about over the steps of :func:`_turn_steps` in which the body turns (mean rate over
     :data:`STILL_RATE`): :func:`turning_offset`'s fit on those steps alone, which holds a few seconds of motion in a
     log at rest (the still steps' noise set its trim and hid them: BROAD's last 40 s, 0.4-2 rad of turning, with
-    (25, -15, 35) µT). None where they turn the body by under :data:`MAG_UNSEEN_TURN` rad, b explains under
+    (25, -15, 35) µT). None where they turn the body by under :data:`MAG_UNSEEN_TURN` rad, or b explains under
     :data:`MAG_UNSEEN_EXPLAINED` of their turning or under :data:`MAG_TURN_OFFSET_PIECE` of the kept steps' in
-    either half of what it predicts, or b is within :data:`MAG_OFFSET` of the field less it (about zero).
+    either half of what it predicts — each share the larger of that of their residual and that of what the noise
+    of a step at rest leaves of it (:func:`_beyond_noise`) — or b is zero or :data:`MAG_TURN_OFFSET_LEFT` beyond
+    the field less it (no size floor: whether b matters is the heading turn it gives, :func:`offset_heading`).
     ``bins``, ``sums``, ``h`` as :func:`turning_offset` takes them."""
     steps = _turn_steps(bins, sums, h)
     if steps is None:
