@@ -1052,6 +1052,36 @@ def test_sqlite_batches_taken_by_two_threads(tmp_path, monkeypatch, leaves, page
     assert np.array_equal(log.gyr, ref[:, 1:4]) and np.array_equal(log.acc, ref[:, 4:7])
 
 
+def test_sqlite_batch_count_that_fails_stops_both_threads(tmp_path, monkeypatch):
+    """A batch whose cell count raises (the other thread may be waiting for that count to place its own batch) stops
+    both threads instead of leaving one waiting: the read falls back to the blocks, the values those written."""
+    import rosbags.highlevel
+
+    from optinav.io import _bagkernels as kern
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(31)
+    msgs, t, gyr, acc = imu_topic(rng, n=600, rate=1000.0)
+    bag = write_bag(tmp_path / "f", "sqlite3-file", {"/imu": (IMU, msgs)})
+    monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)  # read by the scanner alone
+    monkeypatch.setattr(bagscan, "_LEAVES", 1)
+    monkeypatch.setattr(bagscan, "_ROUND", 2 * 4096)
+    monkeypatch.setattr(bagscan, "_helper", lambda: _SpyPool())
+    real, calls = kern.sqlite_cells, []
+
+    def count(*args):
+        calls.append(1)
+        if len(calls) == 4:
+            raise RuntimeError("a count that fails")
+        return real(*args)
+
+    monkeypatch.setattr(kern, "sqlite_cells", count)
+    decoded = _spy_decode(monkeypatch, "sqlite_decode")
+    log = read_imu(bag)
+    assert decoded == [] and len(calls) >= 4  # it raised: the caller reads the blocks
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
 def _imu_mag_sqlite_in_small_rounds(tmp_path, monkeypatch, msgs, mags, pages: int):
     """A rosbag2 sqlite3 bag of the Imu messages ``msgs`` and MagneticField messages ``mags`` ((stamp ns, maker)
     pairs) interleaved by stamp, to be read by the scanner alone in rounds of ``pages`` pages of one leaf each and

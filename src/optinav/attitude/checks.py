@@ -2306,23 +2306,32 @@ def mag_gyro_scale(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[float,
     Σ|Δu|), over the magnetically quiet bins (:data:`MAG_QUIET`); NaNs when under 30 pairs of bins. ``bins``,
     ``sums`` as :func:`field_rate_sums` gives them."""
     nan = (float("nan"),) * 3
-    if len(bins) == 0:
+    quiet = _quiet_steps(bins, sums)
+    if quiet is None:
         return nan
-    both, m, w = bin_fields(bins, sums)
-    nm = _norm(m)
-    finite = np.isfinite(nm)
-    if not np.any(finite):
-        return nan
-    with np.errstate(invalid="ignore"):
-        quiet = np.abs(nm / np.median(nm[finite]) - 1.0) < MAG_QUIET
-    pair = (np.diff(both) == 1) & quiet[1:] & quiet[:-1]
-    if np.count_nonzero(pair) < 30:
-        return nan
-    du, pred = _turns(m / np.where(quiet, nm, 1.0)[:, None], w, pair, h)
+    du, pred = _turns(*quiet, h)
     pp, dp, dd = float(np.sum(pred * pred)), float(np.sum(du * pred)), float(np.sum(du * du))
     if not (pp > 0 and dd > 0):
         return nan
     return dp / pp, dp * dp / (pp * dd), float(np.sum(_norm(du)))
+
+
+def _quiet_steps(bins: np.ndarray, sums: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(unit field (k, 3), mean gyro (k, 3) rad/s, the pairs of neighbouring magnetically quiet bins (k − 1,)) of
+    :func:`field_rate_sums`' bins, for :func:`_turns`; None under 30 such pairs."""
+    if len(bins) == 0:
+        return None
+    both, m, w = bin_fields(bins, sums)
+    nm = _norm(m)
+    finite = np.isfinite(nm)
+    if not np.any(finite):
+        return None
+    with np.errstate(invalid="ignore"):
+        quiet = np.abs(nm / np.median(nm[finite]) - 1.0) < MAG_QUIET
+    pair = (np.diff(both) == 1) & quiet[1:] & quiet[:-1]
+    if np.count_nonzero(pair) < 30:
+        return None
+    return m / np.where(quiet, nm, 1.0)[:, None], w, pair
 
 
 def gyro_scale_error(s: float, explained: float, turned: float, gyro_unit: str | None = None) -> OptinavError | None:
@@ -3484,19 +3493,10 @@ def field_tells_turn(bins: np.ndarray, sums: np.ndarray, h: float, reading: np.n
     plus c times what the reading alone predicts; c (least squares) is 1 for a turn, 0 for a bias. Told where c is
     within :data:`FIELD_TELLS` of one of them and its standard error under a third of that; None otherwise (a field
     that hardly turned with the reading, or a disturbed one)."""
-    if len(bins) == 0:
+    quiet = _quiet_steps(bins, sums)
+    if quiet is None:
         return None
-    both, m, w = bin_fields(bins, sums)
-    nm = _norm(m)
-    finite = np.isfinite(nm)
-    if np.count_nonzero(finite) < 30:
-        return None
-    with np.errstate(invalid="ignore"):
-        quiet = np.abs(nm / np.median(nm[finite]) - 1.0) < MAG_QUIET
-    pair = (np.diff(both) == 1) & quiet[1:] & quiet[:-1]
-    if np.count_nonzero(pair) < 30:
-        return None
-    u = m / np.where(quiet, nm, 1.0)[:, None]
+    u, w, pair = quiet
     r = np.asarray(reading, dtype=float)
     du, less = _turns(u, w - r, pair, h)
     _, alone = _turns(u, np.broadcast_to(r, w.shape), pair, h)

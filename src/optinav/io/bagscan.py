@@ -1041,7 +1041,13 @@ def sqlite_decode(files: list[Path], topic: str, layout, reserve) -> int | None:
             starts = {spans[0][0]: row}
 
             def claim(i: int, j: int):
-                c = int(kern.sqlite_cells(u8, leaves[i:j], psize))
+                try:
+                    c = int(kern.sqlite_cells(u8, leaves[i:j], psize))
+                except BaseException:  # the other thread may wait for this count: it stops instead
+                    with cond:
+                        halt[0] = min(halt[0], i)
+                        cond.notify_all()
+                    raise
                 with cond:
                     counts[i] = c
                     while front[0] in counts and front[0] < halt[0]:
