@@ -656,9 +656,11 @@ def estimate(
         reading = rest_reading(*still_sums(gyr, acc), step)
         # a bias beyond what the unit checks allow for is taken off for them: it is judged as a bias just after
         check_imu(gyr, acc, dts, rest=rest_offset(reading))
+        rows = scale_bin_rows(step)
+        # the field's and the gyro's sums per 0.1-s bin: for the bias range (a turn or a bias) and the field's checks
+        turns = None if mag is None else (*field_rate_sums(gyr, mag, rows), rows * step)
         if clip is not None:
-            rows = scale_bin_rows(step)
-            field = None if mag is None else lambda: (*field_rate_sums(gyr, mag, rows), rows * step)
+            field = None if turns is None else lambda: turns
             check_bias_range(reading, clip, method, whole=lambda: whole_log_bins(gyr, acc, dts), field=field)
         else:
             check_untracked_bias(reading, method)
@@ -666,8 +668,7 @@ def estimate(
         if q0 is not None:
             check_q0(_as_q0(q0), acc, frame)
         if mag is not None:
-            rows = scale_bin_rows(step)
-            turns = (*field_rate_sums(gyr, mag, rows), rows * step)
+            tilt = functools.cache(lambda: mag_sums(acc, mag))  # the whole log's tilt-bin sums, once if at all
             checked = mag_hard_iron  # the offset the field checks take off: fitted online, the whole recording's
             if online_fit:  # an uncalibrated magnetometer said so: fitted from past samples below
                 got = hard_iron(mag[:: mag_fit_stride(mag.shape[0])])
@@ -678,12 +679,12 @@ def estimate(
                 b = check_mag(strided, offline, online=method == "iframe", turned=turned)
                 # online, an offset that turns the heading little is used as measured from the start (the checks
                 # take it off, as they take off the one fitted from past samples)
-                tolerated = not offline and b is not None and offset_tolerated(b, strided, turns, mag_sums(acc, mag))
+                tolerated = not offline and b is not None and offset_tolerated(b, strided, turns, tilt())
                 online_fit = b is not None and not offline and not tolerated
                 if b is None:  # an offset the recording does not turn every way about
                     b = check_turning_offset(*turns, offline)
                 if b is None and offline:  # a residual under those fits' gates that the turning shows
-                    b = small_offset(*turns, lambda: mag_sums(acc, mag))
+                    b = small_offset(*turns, tilt)
                 mag_hard_iron = None if online_fit or tolerated else b
                 checked, fitted = b, b is not None and not tolerated
             else:
@@ -699,9 +700,7 @@ def estimate(
             if err is None and mag_hard_iron is not None:  # subtracted from every row: it must be there at each
                 err = offset_held_error(*turns[:2], turns[2], rows, mag_hard_iron, offline)
             if err is None and checked is None and not online_fit:  # no offset taken out: it must turn about zero
-                err = offset_unseen_error(
-                    pieces, *turns, rows, mag[:: mag_fit_stride(mag.shape[0])], offline, lambda: mag_sums(acc, mag)
-                )
+                err = offset_unseen_error(pieces, *turns, rows, mag[:: mag_fit_stride(mag.shape[0])], offline, tilt)
             # the field the estimate uses: less the offset it subtracts. Before an offset the field turns about is
             # refused: a mirrored frame or a magnetometer in other axes turns it about a point off zero too
             check_mag_axes(acc, mag if checked is None else mag - checked, step, gyr)

@@ -123,12 +123,11 @@ class StreamChecks:
         mag = np.concatenate(self._mag)
         b = _c.check_mag(mag, offline=True, turned=self._turned())
         if online and b is not None and self._scale_sums and self._mag_sums:
-            msums = [np.concatenate(x) for x in zip(*self._mag_sums)]
-            self.hard_iron_tolerated = _c.offset_tolerated(b, mag, self._turn_sums(), msums)
+            self.hard_iron_tolerated = _c.offset_tolerated(b, mag, self._turn_sums(), self._tilt_sums())
         if b is None and self._scale_sums:  # online refused: the fit from past samples needs every axis turned
             b = _c.check_turning_offset(*self._turn_sums(), offline=not online)
         if b is None and not online and self._scale_sums and self._mag_sums:  # as estimate() offline
-            b = _c.small_offset(*self._turn_sums(), lambda: [np.concatenate(x) for x in zip(*self._mag_sums)])
+            b = _c.small_offset(*self._turn_sums(), self._tilt_sums)
         self.fitted_hard_iron = b
         return b
 
@@ -137,6 +136,10 @@ class StreamChecks:
     #: online, the offset :meth:`hard_iron` fitted turns the heading so little that the estimate uses the field as
     #: measured, fitting none from past samples (:func:`checks.offset_tolerated`); the checks still take it off
     hard_iron_tolerated = False
+
+    def _tilt_sums(self) -> list[np.ndarray]:
+        """The tilt bins' sums (:func:`checks.mag_sums`: bins, specific force, field, counts, …) over the whole log."""
+        return [np.concatenate(x) for x in zip(*self._mag_sums)]
 
     def _turned(self) -> float:
         """The body's turning (rad, :func:`checks.body_turned`); inf when the gyro-scale sums were not kept."""
@@ -278,7 +281,7 @@ class StreamChecks:
         )
         err = None  # raised after the magnetometer-axes check (a mirrored frame turns the field about other points)
         # the tilt bins' sums (bins, specific force, field, counts, …) over the whole log, joined once
-        msums = [np.concatenate(x) for x in zip(*self._mag_sums)] if self._mag_sums else None
+        msums = self._tilt_sums() if self._mag_sums else None
         if self._mag and self._scale_sums:  # one offset for the whole recording, or none, must hold in every part
             bins, raw, h = self._turn_sums()
             sums = _c.rate_sums_less_offset(raw, offset)
