@@ -3536,12 +3536,11 @@ def check_bias_range(
         return
     bias, _, seconds = reading
     turn = _turn_or_bias(reading)
-    told = None
-    if field is not None and _turn_like(bias, reading[1]) and float(np.max(np.abs(bias))) > clip:
+    worst, told = float(np.max(np.abs(bias))), None
+    if field is not None and _turn_like(bias, reading[1]) and worst > clip:
         told = field_tells_turn(*field(), bias)
     if turn and told is not False and (whole is None or not bias_not_turn(*whole(), bias)):
         return
-    worst = float(np.max(np.abs(bias)))
     if worst <= clip or told:
         return
     wanted = float(np.ceil(2.0 * worst * 100.0) / 100.0)

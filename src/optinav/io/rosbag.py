@@ -88,7 +88,7 @@ def load_bag(path, *, topic=None, only=None):
     _check_wal(path)
     wanted = _parse_topics(topic)
     AnyReader = _rosbags()
-    _metadata.cache_clear()  # parsed once in this read, and again in the next (the file may have changed)
+    _metadata.cache_clear()  # parsed once in this read; the next read parses its own (a read's time holds its parse)
     inflated = _inflated_load(path, topic)
     if inflated is not None:
         return inflated
