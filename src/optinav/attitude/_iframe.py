@@ -323,6 +323,20 @@ def _hi_reset(st):
 
 
 @numba.njit(**_NJ)
+def mag_restart(st):
+    """Forget every magnetometer sample so far: the state's magnetic part as before the first (reference, new-field
+    candidate, start-up clock, the body-fixed offset's fit). The next field sample sets the heading anew, as a
+    magnetometer that starts there would; the tilt and the bias, which the field never enters, go on."""
+    for j in range(S_M_NORM, S_M_INIT + 1):
+        st[j] = 0.0
+    st[S_MAG_USED] = 0.0
+    for j in (S_M_LP, S_M_LP + 1, S_M_T0, S_M_SEEN, S_M_T1, S_M_LAST):
+        st[j] = 0.0
+    for j in range(S_HI, S_HI_N + 3):
+        st[j] = 0.0
+
+
+@numba.njit(**_NJ)
 def _hard_iron(st, par, t0, t1, t2, t3, mx, my, mz, hm):
     """Add a disturbed field sample to the body-fixed offset fit and solve it: m − Cᵀe(φ̂) = Cᵀ∂e/∂φ·δφ + b, e the
     reference field (norm, dip) at the azimuth φ̂ = −δ the heading holds, C = C(t) body → the frame before δ,
@@ -796,10 +810,11 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
 
 
 @numba.njit(**_NJ)
-def run(st, par, gyr, acc, mag, dt, out, flags, bias, moff):
+def run(st, par, gyr, acc, mag, dt, out, flags, bias, moff, restart=-1):
     """Batch loop over :func:`step`: out (N, 4) q_b^n; flags (N, 4) int8 rest, acc used, mag used, motion
     bias update; bias (N, 3) rad/s; moff (N, 3) the body-fixed offset the used field was taken less (0: the
-    field as measured). ``mag`` and ``moff`` may have 0 rows (none); ``dt`` 1 or N entries."""
+    field as measured). ``mag`` and ``moff`` may have 0 rows (none); ``dt`` 1 or N entries; the magnetic part of
+    the state restarts before row ``restart`` (:func:`mag_restart`; -1: none)."""
     n = gyr.shape[0]
     one = dt.shape[0] == 1
     nan = np.nan
@@ -809,6 +824,8 @@ def run(st, par, gyr, acc, mag, dt, out, flags, bias, moff):
         for i in range(n):
             h = dt[0] if one else dt[i]
             g, a, m = gyr[i], acc[i], mag[i]
+            if i == restart:
+                mag_restart(st)
             step(st, par, g[0], g[1], g[2], a[0], a[1], a[2], m[0], m[1], m[2], h)
             _emit(st, i, out, flags, bias)
             c = st[S_MAG_CORR] != 0.0
@@ -1032,14 +1049,15 @@ def azimuth_scatter(d, out, used, acc):
 # candidate fit (the blocks since the offset stopped explaining them), a scratch block; the current block's time
 # (s), 1 while a candidate is open, the restarts, the row of the last one, the row the open candidate was opened
 # at, 1 while a younger fit gathers blocks beside one that turned every way and never passed; the last block; the
-# time (s) the field has been held unused, and 1 while it is (the open candidate shows another offset)
+# time (s) the field has been held unused, and 1 while it is (the open candidate shows another offset); 1 where the
+# field is given as measured before the fit passes (NaN otherwise)
 HF_C, HF_SET, HF_N, HF_M, HF_MM, HF_Y, HF_YM, HF_YY = 0, 3, 4, 5, 8, 14, 15, 18
 HF_T, HF_B, HF_OK, HF_ROWS, HF_FROM = 19, 20, 23, 24, 25
 HF_MOM = 15
 HF_BLK, HF_CAND, HF_TMP = 26, 41, 56
 HF_BLK_T, HF_OPEN, HF_RESTARTS, HF_RESTART_ROW, HF_OPEN_ROW, HF_YOUNG = 71, 72, 73, 74, 75, 76
-HF_LAST, HF_OPEN_T, HF_HELD = 77, 92, 93
-HF_SIZE = 94
+HF_LAST, HF_OPEN_T, HF_HELD, HF_MEASURED = 77, 92, 93, 94
+HF_SIZE = 95
 #: s between two solves of the online fit (a 3×3 eigenvalue problem: out of the per-sample loop)
 HF_EVERY = 0.25
 #: s of samples judged together against the offset in use (BROAD's 2.5-s blocks in motion spread the field by
@@ -1289,7 +1307,8 @@ def _hf_block_end(fs):
 def hard_iron_online(fs, mx, my, mz, h, w):
     """One magnetometer sample (any unit; NaN: none) after a step of h s, the body turning at ``w`` rad/s (|ω|;
     NaN: not known), into the online offset fit ``fs`` (HF_SIZE): the field less the offset fitted from this and
-    the earlier samples, NaN until the fit has passed its gates (:func:`_hf_solve`, every HF_EVERY s), then refined
+    the earlier samples once the fit has passed its gates (:func:`_hf_solve`, every HF_EVERY s; before, NaN, or
+    with HF_MEASURED the field as measured, which the filter uses until then: :func:`fitted_sample`), then refined
     at each solve that passes; NaN while the recent samples show another offset, until their own fit restarts it
     (:func:`_hf_block_end`). Only samples taken while the body turns faster than STILL_RATE enter the fit: at rest
     the field sits at one point of the sphere and says nothing of the offset but, weighted by its time, pulls the
@@ -1316,9 +1335,21 @@ def hard_iron_online(fs, mx, my, mz, h, w):
     if fs[HF_BLK_T] >= HF_BLOCK:
         fs[HF_BLK_T] = 0.0
         _hf_block_end(fs)
-    if fs[HF_OK] == 0.0 or fs[HF_HELD] != 0.0 or not finite:
+    if fs[HF_HELD] != 0.0 or not finite:
         return math.nan, math.nan, math.nan
+    if fs[HF_OK] == 0.0:
+        return (mx, my, mz) if fs[HF_MEASURED] != 0.0 else (math.nan, math.nan, math.nan)
     return mx - fs[HF_B], my - fs[HF_B + 1], mz - fs[HF_B + 2]
+
+
+@numba.njit(**_NJ)
+def fitted_sample(fs, st, mx, my, mz, h, w):
+    """:func:`hard_iron_online` for the filter state ``st``: the field to step it with, its magnetic part restarted
+    (:func:`mag_restart`) at the sample from which the fit's offset is subtracted."""
+    m = hard_iron_online(fs, mx, my, mz, h, w)
+    if fs[HF_OK] != 0.0 and fs[HF_FROM] == fs[HF_ROWS] - 1.0:
+        mag_restart(st)
+    return m
 
 
 @numba.njit(**_NJ)

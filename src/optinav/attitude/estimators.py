@@ -62,6 +62,7 @@ from optinav.attitude.checks import (
     offset_tolerated,
     offset_unseen_error,
     offset_pieces,
+    measured_before_fit,
     online_fit_failed,
     online_offset_changed,
     rate_sums_less_offset,
@@ -74,6 +75,7 @@ from optinav.attitude.iframe import (
     hard_iron_online,
     online_fit_held,
     online_fit_result,
+    online_fit_state,
     run_iframe,
 )
 from optinav.attitude.iframe import input_stage as _input_stage
@@ -180,7 +182,7 @@ class AttitudeEstimate(Estimate):
     mag_hard_iron_fitted: bool = False
     #: online, an uncalibrated magnetometer: the sample from which the field was used less ``mag_hard_iron``, fitted
     #: from that sample and those before it (:func:`~optinav.attitude.iframe.hard_iron_online`; refined since, the
-    #: offset the last one); the magnetometer unused before it, the heading the gyro's. None: not fitted online
+    #: offset the last one), the heading from there starting anew from the field less it. None: not fitted online
     mag_hard_iron_from: int | None = None
     #: rows holding a magnetometer sample (a slower magnetometer on the IMU's rows has NaN rows between); None: no
     #: magnetometer
@@ -192,6 +194,13 @@ class AttitudeEstimate(Estimate):
     #: a filter does not iterate to convergence: ``converged`` is None
     convergence: dict = field(default_factory=lambda: filter_convergence())
     gates: list = field(default_factory=list)
+
+    @property
+    def mag_used_before_fit(self) -> bool:
+        """With :attr:`mag_hard_iron_from`: whether the field was used as measured before it (the offset turns its
+        heading little: :func:`checks.measured_before_fit`); else it was unused there, the heading the gyro's."""
+        k = self.mag_hard_iron_from
+        return k is not None and self.mag_used is not None and bool(np.any(self.mag_used[:k]))
 
     def parameters(self) -> dict[str, Parameter]:
         e = self.euler()
@@ -239,6 +248,7 @@ class AttitudeEstimate(Estimate):
             mag_hard_iron=self.mag_hard_iron,
             mag_hard_iron_fitted=self.mag_hard_iron_fitted,
             mag_hard_iron_from=self.mag_hard_iron_from,
+            mag_used_before_fit=self.mag_used_before_fit,
             pol_used=self.pol_used,
             pol_skipped=self.pol_skipped,
         )
@@ -261,11 +271,13 @@ def summary_line(
     mag_hard_iron_fitted: bool = False,
     mag_rows: int | None = None,
     mag_hard_iron_from: int | None = None,
+    mag_used_before_fit: bool = False,
 ) -> str:
     """One line on an estimate of ``n`` samples, starting with its :func:`variant`; ``rest``/``mag_used`` the
     fractions of samples at rest and with the magnetometer used, ``mag_offset_used`` of those used less a fitted
     body-fixed offset; ``mag_hard_iron`` the hard-iron offset subtracted (fitted from the recording or given; with
-    ``mag_hard_iron_from``, fitted online from past samples and used from that sample on);
+    ``mag_hard_iron_from``, fitted online from past samples and used from that sample on, the field before it as
+    measured with ``mag_used_before_fit``, else unused);
     ``mag_rows`` the rows holding a magnetometer sample: fewer than ``n`` (a slower magnetometer), the share is
     of those."""
     pol_skipped = pol_skipped or {}
@@ -286,10 +298,12 @@ def summary_line(
             b = ", ".join(f"{v:.4g}" for v in np.asarray(mag_hard_iron, float))
             how = "fitted from the recording's rotations" if mag_hard_iron_fitted else "given"
             if mag_hard_iron_from is not None:
-                how = (
-                    f"fitted online from past samples; the magnetometer used from sample {mag_hard_iron_from} on, "
-                    "the heading before it the gyro's from the start"
+                before = (
+                    "as measured before it (the heading off by what the offset turns it)"
+                    if mag_used_before_fit
+                    else "the heading before it the gyro's from the start"
                 )
+                how = f"fitted online from past samples; the magnetometer used from sample {mag_hard_iron_from} on, {before}"
             s += f"; magnetometer offset [{b}] subtracted ({how})"
     if pol_used or skipped:
         s += f"; polarization used {pol_used}, skipped {skipped} " + str(pol_skipped)
@@ -610,9 +624,10 @@ def estimate(
         The magnetometer's hard-iron offset [its unit], subtracted from every row. None: with ``checks``, a field
         norm that follows the orientation as a constant offset makes it is fitted (:func:`checks.hard_iron`):
         subtracted offline; online fitted from past samples instead (as ``"online"`` does, iframe:
-        :func:`~optinav.attitude.iframe.hard_iron_online`), the magnetometer unused until that fit passes its
-        gates (``mag_hard_iron_from`` of the result), and refused when it never does (naming the offset to pass
-        here).
+        :func:`~optinav.attitude.iframe.hard_iron_online`), the heading starting anew from the field less it where
+        that fit passes its gates (``mag_hard_iron_from`` of the result), and refused when it never does (naming
+        the offset to pass here). Before, the field is used as measured where the whole recording's offset turns
+        its heading by under 20° (:func:`checks.measured_before_fit`; ``mag_used_before_fit``), else unused.
     offline : bool
         Use the whole recording (iframe).
     input_stage : bool
@@ -636,7 +651,7 @@ def estimate(
     gyr, acc, mag = _checked_imu(gyr, acc, mag)
     n = gyr.shape[0]
     dts = _as_dt(dt, n)
-    fitted, online_fit = False, False
+    fitted, online_fit, measured = False, False, False
     if mag_hard_iron is not None:
         mag_hard_iron = _hard_iron(mag_hard_iron, mag)
         online_fit = isinstance(mag_hard_iron, str)
@@ -706,6 +721,7 @@ def estimate(
             check_mag_axes(acc, mag if checked is None else mag - checked, step, gyr)
             if err is not None:
                 raise err
+            measured = online_fit and checked is not None and measured_before_fit(checked, tilt())
     if mag_hard_iron is not None:
         mag = mag - mag_hard_iron
     gaps = find_gaps(dts)
@@ -716,13 +732,13 @@ def estimate(
             "gyro across it would be wrong",
             "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap",
         )
-    hi_from = None
+    hi_from = early = None
     if online_fit:
         # the offset from each sample and those before it: the gaps' segments continue one fit (a sensor property),
         # each gap a typical step (as the segments take it, and a log read in blocks)
         fit_dt = dts.copy() if gaps.size else dts
         fit_dt[gaps] = np.median(dts)
-        raw, (mag, fs) = mag, hard_iron_online(mag, fit_dt, gyr=gyr)
+        raw, (mag, fs) = mag, hard_iron_online(mag, fit_dt, online_fit_state(measured), gyr=gyr)
         mag_hard_iron, hi_from = online_fit_result(fs)
         if hi_from is None:
             raise online_fit_failed(raw[:: mag_fit_stride(raw.shape[0])])
@@ -730,6 +746,12 @@ def estimate(
         if held is not None and held[1] >= opts["mag_new_time"]:  # as long as a new field takes to be believed
             raise online_offset_changed(*held)
         fitted = True
+        # before the fit passed, the field as measured: the estimate of those rows alone (its magnetic part then
+        # restarts, as the streamed filter's does: _iframe.mag_restart; the tilt and the bias never see the field)
+        early = None if not measured else estimate(gyr[:hi_from], acc[:hi_from], dts[:hi_from] if dts.shape[0] > 1 else dts[0], method=method,
+                         frame=frame, q0=q0, mag=raw[:hi_from], allow_gaps=allow_gaps, checks=False, **options)  # fmt: skip
+        mag = mag.copy()
+        mag[:hi_from] = np.nan
     mag_rows = None if mag is None else int(np.count_nonzero(np.isfinite(raw if online_fit else mag).all(axis=1)))
     if gaps.size:
         seg_dt = dts.copy()
@@ -760,7 +782,7 @@ def estimate(
         parts = [part(a, b) for a, b in zip(np.r_[0, gaps], np.r_[gaps, n])]
         first = parts[0]
         cat = lambda name: None if getattr(first, name) is None else np.concatenate([getattr(p, name) for p in parts])
-        return AttitudeEstimate(
+        return _after(early, AttitudeEstimate(
             q_b_n=cat("q_b_n"),
             method=method,
             frame=frame,
@@ -783,12 +805,12 @@ def estimate(
             offline=offline,
             input_stage=first.input_stage,
             segments=len(parts),
-        )
+        ))  # fmt: skip
     if method == "iframe":
         r = run_iframe(
             gyr, acc, dts, mag=mag, frame=frame, q0=None if q0 is None else _as_q0(q0), offline=offline, **opts
         )
-        return AttitudeEstimate(
+        return _after(early, AttitudeEstimate(
             q_b_n=r.q_b_n,
             method=method,
             frame=frame,
@@ -805,7 +827,7 @@ def estimate(
             offline=offline,
             input_stage=True,
             acc_threshold_hits=int(np.count_nonzero(~r.acc_used)),
-        )
+        ))  # fmt: skip
     front = None
     if input_stage:
         gyr, acc, front = _input_stage(gyr, acc, dts, frame=frame)
@@ -836,6 +858,18 @@ def estimate(
         rest=None if front is None else front.rest,
         input_stage=input_stage,
     )
+
+
+def _after(early: AttitudeEstimate | None, est: AttitudeEstimate) -> AttitudeEstimate:
+    """``est`` with the attitude and the magnetometer's use of its first rows those of ``early`` (the rows before an
+    online hard-iron fit passed, estimated with the field as measured; the tilt, the bias, rest and the
+    accelerometer's use never see the field), its share of samples used less a disturbed field's offset over both."""
+    if early is None:
+        return est
+    k, n = early.q_b_n.shape[0], est.q_b_n.shape[0]
+    est.q_b_n[:k], est.mag_used[:k] = early.q_b_n, early.mag_used
+    est.mag_offset_used = (est.mag_offset_used * n + early.mag_offset_used * k) / max(n, 1)
+    return est
 
 
 def estimate_q(

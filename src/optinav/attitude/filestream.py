@@ -102,6 +102,7 @@ class StreamedEstimate:
     #: and the row from which the field was used less the one fitted online (None: not fitted online)
     mag_hard_iron: np.ndarray | None = None
     mag_hard_iron_from: int | None = None
+    mag_used_before_fit: bool = False  # the field as measured before mag_hard_iron_from (else unused)
 
     @property
     def SCHEMA(self) -> str:  # noqa: N802 - the attribute every result has
@@ -1254,6 +1255,7 @@ def stream_attitude(
         input_stage=o.input_stage,
         mag_hard_iron=hard_iron,
         mag_hard_iron_online=online_fit,
+        mag_measured_before_fit=online_fit and checks.hard_iron_measured,
         **dict(o.options),
     )
     step(f"estimate ({method}), write")  # one pass does both
@@ -1346,4 +1348,5 @@ def _estimate(e: StreamEstimator) -> StreamedEstimate:
         input_stage=bool(e.input_stage),
         mag_hard_iron=e.hard_iron_used if e.mag_used is not None else None,
         mag_hard_iron_from=e.mag_hard_iron_from,
+        mag_used_before_fit=e.mag_used_before_fit,
     )

@@ -82,6 +82,7 @@ __all__ = [
     "run_iframe",
     "input_stage",
     "hard_iron_online",
+    "online_fit_state",
     "online_fit_held",
 ]
 
@@ -182,15 +183,24 @@ class FilterRun:
 IframeRun = FilterRun
 
 
-def _run(st, par, gyr, acc, mag, dts) -> FilterRun:
+def _run(st, par, gyr, acc, mag, dts, restart: int = -1) -> FilterRun:
     n = gyr.shape[0]
     out = np.empty((n, 4))
     flags = np.empty((n, 4), np.int8)
     bias = np.empty((n, 3))
     moff = np.empty((mag.shape[0], 3))
-    _k.run(st, par, gyr, acc, mag, dts, out, flags, bias, moff)
+    _k.run(st, par, gyr, acc, mag, dts, out, flags, bias, moff, restart)
     f = flags.astype(bool)
     return FilterRun(out, f[:, 0], f[:, 1], f[:, 2], bias, st, mag_offset=moff if mag.shape[0] else None)
+
+
+def online_fit_state(measured: bool = False) -> np.ndarray:
+    """A new state (:data:`_iframe.HF_SIZE`) of :func:`hard_iron_online`'s fit: before it passes its gates the
+    magnetometer rows given as measured (``measured``: the heading from them until then, off by what the offset
+    turns it) or NaN (the field unused, the heading the gyro's from the start)."""
+    fs = np.zeros(_k.HF_SIZE)
+    fs[_k.HF_MEASURED] = float(measured)
+    return fs
 
 
 def hard_iron_online(mag, dts, fit=None, gyr=None) -> tuple[np.ndarray, np.ndarray]:
@@ -199,15 +209,23 @@ def hard_iron_online(mag, dts, fit=None, gyr=None) -> tuple[np.ndarray, np.ndarr
     running moments over the rows where the gyro ``gyr`` (N, 3) [rad/s] turns faster than
     :data:`~optinav.attitude.checks.STILL_RATE` (None: every row), solved every 0.25 s of the steps ``dts`` (s, 1
     or N), used once it passes the same gates with every body axis turned about and the corrected norm as steady
-    as a calibrated one, and restarted from the recent rows when they show another offset; NaN rows before, and
-    while another offset explains the recent rows but is not fitted yet: :func:`online_fit_held`); and the fit's
-    state ``fit``
-    (:data:`_iframe.HF_SIZE`; a new one when None, else continued in place)."""
-    fs = np.zeros(_k.HF_SIZE) if fit is None else fit
+    as a calibrated one, and restarted from the recent rows when they show another offset; before, NaN or the rows
+    as measured (:func:`online_fit_state`; :func:`first_fitted_row`), NaN while another offset explains the recent
+    rows but is not fitted yet: :func:`online_fit_held`); and the fit's state ``fit`` (:func:`online_fit_state`
+    when None, else continued in place)."""
+    fs = online_fit_state() if fit is None else fit
     out = np.empty(mag.shape)
     w = np.zeros((0, 3)) if gyr is None else np.ascontiguousarray(gyr, dtype=float)
     _k.hard_iron_online_run(fs, np.ascontiguousarray(mag, dtype=float), np.ascontiguousarray(dts, dtype=float), w, out)
     return out, fs
+
+
+def first_fitted_row(fs, row0) -> int:
+    """The row of a chunk whose fit state ``fs`` stood at ``row0`` rows before it from which the online fit's
+    offset is first subtracted (the filter's magnetic part restarts there: :func:`_iframe.mag_restart`); -1 where
+    that is not in the chunk."""
+    k = fs[_k.HF_FROM] - row0
+    return int(k) if fs[_k.HF_OK] and k >= 0 else -1
 
 
 def online_fit_result(fs) -> tuple[np.ndarray | None, int | None]:
@@ -588,10 +606,12 @@ class AttitudeFilter(StreamGaps):
     a hard-iron offset subtracted from every magnetometer sample, as :func:`optinav.attitude.estimate` takes it;
     ``"online"``: an uncalibrated magnetometer whose offset is fitted from the samples so far
     (:func:`hard_iron_online`, as the online estimate does when its check finds one), the magnetometer unused (the
-    heading the gyro's) until the fit passes its gates; :attr:`mag_hard_iron` and :attr:`mag_hard_iron_from` then
-    say the offset and the sample from which it was subtracted. Only for a magnetometer known to carry an offset
-    (a raw sensor, or one the estimate found so): a calibrated one shows none to fit and stays unused (BROAD
-    trial 02 as recorded: 0 % used). After each update: :attr:`q_b_n`, :attr:`rest`,
+    heading the gyro's from the start) until the fit passes its gates, or with ``mag_measured_before_fit`` used as
+    measured until then (the heading off by what the offset turns it); from there less the offset, the heading
+    starting anew from it (as a magnetometer that starts there). :attr:`mag_hard_iron` and
+    :attr:`mag_hard_iron_from` then say the offset and the sample from which it was subtracted. Only for a
+    magnetometer known to carry an offset (a raw sensor, or one the estimate found so): a calibrated one shows none
+    to fit and stays unused, or used as measured throughout. After each update: :attr:`q_b_n`, :attr:`rest`,
     :attr:`gyr_bias` (rad/s), :attr:`acc_used`, :attr:`mag_used` (None before the first); ``update`` itself returns
     None (a copy of q would cost a third of its time: read :attr:`q_b_n`). :meth:`update_batch` runs chunks with
     the same arithmetic as :func:`optinav.attitude.estimate` and returns a :class:`FilterRun`, as every method's
@@ -606,6 +626,7 @@ class AttitudeFilter(StreamGaps):
         frame: str = DEFAULT_FRAME,
         q0=None,
         mag_hard_iron=None,
+        mag_measured_before_fit: bool = False,
         **options,
     ):
         from optinav.attitude.estimators import _as_q0, _hard_iron, _options, default_step
@@ -617,8 +638,8 @@ class AttitudeFilter(StreamGaps):
         online = isinstance(mag_hard_iron, str) and mag_hard_iron == "online"
         self._given = None if mag_hard_iron is None or online else _hard_iron(mag_hard_iron, True)
         self._hi = None if self._given is None else tuple(float(v) for v in self._given)
-        self._fit = np.zeros(_k.HF_SIZE) if online else None
-        self._fit_step = _k.hard_iron_online
+        self._fit = online_fit_state(mag_measured_before_fit) if online else None
+        self._fit_step = _k.fitted_sample
         self._state = _new_state(self.options, None if q0 is None else _as_q0(q0))
         # views of the state's q and bias: a read copies them without slicing (the state is never replaced)
         self._q, self._bias = self._state[_k.S_Q : _k.S_Q + 4], self._state[_k.S_BIAS : _k.S_BIAS + 3]
@@ -672,7 +693,7 @@ class AttitudeFilter(StreamGaps):
             mag = (mag[0] - b[0], mag[1] - b[1], mag[2] - b[2])
         elif mag is not None and self._fit is not None:
             w = math.sqrt(float(gyr[0]) ** 2 + float(gyr[1]) ** 2 + float(gyr[2]) ** 2)
-            mag = self._fit_step(self._fit, float(mag[0]), float(mag[1]), float(mag[2]), float(h), w)
+            mag = self._fit_step(self._fit, self._state, float(mag[0]), float(mag[1]), float(mag[2]), float(h), w)
         if mag is None and type(gyr) is not list and type(acc) is not list:  # arrays and tuples as they are
             ok = self._step6(self._state, self._par, gyr, acc, h)
         elif mag is not None and type(gyr) is not list and type(acc) is not list and type(mag) is not list:
@@ -734,11 +755,14 @@ class AttitudeFilter(StreamGaps):
             raise OptinavError("no time step for this chunk", "pass dt= or build with rate_hz")
         d = _as_dt(h, g.shape[0])
         self._chunk_gaps(d)
+        restart = -1
         if m is not None and self._given is not None:
             m = m - self._given
         elif m is not None and self._fit is not None:
+            row0 = self._fit[_k.HF_ROWS]
             m, _ = hard_iron_online(m, d, self._fit, g)
-        r = _run(self._state, self._par, g, a, np.zeros((0, 3)) if m is None else m, d)
+            restart = first_fitted_row(self._fit, row0)
+        r = _run(self._state, self._par, g, a, np.zeros((0, 3)) if m is None else m, d, restart)
         r.state = self._state.copy()  # the chunk's end state, not the filter's live one
         r.mag_used = None if m is None else r.mag_used  # no magnetometer given: None, as estimate() reports it
         return r
@@ -754,7 +778,7 @@ class AttitudeFilter(StreamGaps):
     @property
     def mag_hard_iron_from(self) -> int | None:
         """With ``mag_hard_iron="online"``: the sample (counted from 0 over every update) from which the field was
-        used less the offset fitted online; None before (the magnetometer unused) and otherwise."""
+        used less the offset fitted online; None before and otherwise."""
         return None if self._fit is None else online_fit_result(self._fit)[1]
 
     @property

@@ -129,6 +129,8 @@ class StreamChecks:
         if b is None and not online and self._scale_sums and self._mag_sums:  # as estimate() offline
             b = _c.small_offset(*self._turn_sums(), self._tilt_sums)
         self.fitted_hard_iron = b
+        if online and b is not None and self._mag_sums:
+            self.hard_iron_measured = _c.measured_before_fit(b, self._tilt_sums())
         return b
 
     #: the offset :meth:`hard_iron` fitted (None: none, or not asked): the later checks judge the field less it
@@ -136,6 +138,8 @@ class StreamChecks:
     #: online, the offset :meth:`hard_iron` fitted turns the heading so little that the estimate uses the field as
     #: measured, fitting none from past samples (:func:`checks.offset_tolerated`); the checks still take it off
     hard_iron_tolerated = False
+    #: online, the field is used as measured until the fit from past samples passes (:func:`checks.measured_before_fit`)
+    hard_iron_measured = False
 
     def _tilt_sums(self) -> list[np.ndarray]:
         """The tilt bins' sums (:func:`checks.mag_sums`: bins, specific force, field, counts, …) over the whole log."""
@@ -339,6 +343,7 @@ class StreamEstimator:
         mag_hard_iron=None,
         mag_hard_iron_fitted: bool = False,
         mag_hard_iron_online: bool = False,
+        mag_measured_before_fit: bool = False,
         **options,
     ):
         from optinav.attitude.estimators import _as_q0
@@ -351,9 +356,9 @@ class StreamEstimator:
         #: :func:`~optinav.attitude.estimate` fits it): its state, or None
         self._fit = None
         if mag_hard_iron_online:
-            from optinav.attitude import _iframe
+            from optinav.attitude.iframe import online_fit_state
 
-            self._fit = np.zeros(_iframe.HF_SIZE)
+            self._fit = online_fit_state(mag_measured_before_fit)
         self.method, self.frame, self.q0 = method, frame_name(frame), None if q0 is None else _as_q0(q0)
         self.input_stage = input_stage or method == "iframe"
         self.counts = np.zeros(3, dtype=np.int64)  # the kernels' counts over every segment
@@ -375,6 +380,8 @@ class StreamEstimator:
         kw = dict(self.opts, frame=self.frame, q0=self.q0 if self.segments == 0 else None)
         f = make_filter(self.method, input_stage=self.input_stage, **kw)
         f._gap_check = False  # the file's gaps, judged on its whole median, are cut here (restart)
+        if self._fit is not None:
+            f._fit = self._fit  # one fit over every segment, which the filter continues
         return f
 
     def run(
@@ -385,13 +392,8 @@ class StreamEstimator:
         segment's filter's :meth:`update_batch`, its per-block outputs summed for :meth:`summary`."""
         if mag is not None and self.method != "iframe":
             raise OptinavError(f"method {self.method} takes no magnetometer", "use --method iframe with --mag-columns")
-        raw = mag
         if mag is not None and self.mag_hard_iron is not None:
             mag = mag - self.mag_hard_iron
-        elif mag is not None and self._fit is not None:
-            from optinav.attitude.iframe import hard_iron_online
-
-            raw, (mag, _) = mag, hard_iron_online(mag, dts, self._fit, gyr)
         if self._filter is None:
             self._filter = self._new_filter()
             self.segments += 1
@@ -402,7 +404,7 @@ class StreamEstimator:
             self.acc_hits += int(np.count_nonzero(~r.acc_used))
             if mag is not None:
                 self.mag_used = (self.mag_used or 0) + int(np.count_nonzero(r.mag_used))
-                self.mag_rows += int(np.count_nonzero(np.isfinite(raw if self._fit is not None else mag).all(axis=1)))
+                self.mag_rows += int(np.count_nonzero(np.isfinite(mag).all(axis=1)))
                 self.mag_offset_used += int(np.count_nonzero(r.offset_used))
         else:
             counts, skipped = f.counts.copy(), dict(f._skipped)
@@ -446,6 +448,13 @@ class StreamEstimator:
         return online_fit_result(self._fit)[1]
 
     @property
+    def mag_used_before_fit(self) -> bool:
+        """Whether the field was used as measured before :attr:`mag_hard_iron_from` (else unused there)."""
+        from optinav.attitude import _iframe
+
+        return self.mag_hard_iron_from is not None and bool(self._fit[_iframe.HF_MEASURED])
+
+    @property
     def acc_threshold_hits(self) -> int:
         from optinav.attitude import _kernels
 
@@ -475,4 +484,5 @@ class StreamEstimator:
             mag_hard_iron=self.hard_iron_used if self.mag_used is not None else None,
             mag_hard_iron_fitted=self.mag_hard_iron_fitted or self._fit is not None,
             mag_hard_iron_from=self.mag_hard_iron_from,
+            mag_used_before_fit=self.mag_used_before_fit,
         )

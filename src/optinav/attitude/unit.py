@@ -308,7 +308,7 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[S
         "mag": o.uses_mag,
     }
     # the offset subtracted from an uncalibrated magnetometer, and from which row the field was used less the one
-    # fitted online (the heading the gyro's before it): the summary line says so, the table did not
+    # fitted online (before it the field as measured, or the heading the gyro's): the summary line says so, the table did not
     e = run.estimate
     if e.mag_hard_iron is not None:
         extra.update(zip(("mag_hard_iron_x", "mag_hard_iron_y", "mag_hard_iron_z"), map(float, e.mag_hard_iron)))
