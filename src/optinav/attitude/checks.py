@@ -3429,12 +3429,49 @@ def _turning_run(gm: np.ndarray, am: np.ndarray, secs: np.ndarray, above: float 
     return seen >= STILL_TURN_SHARE * said and said > 0.0
 
 
+#: where the still runs' means disagree, the longest run is the rest only if it lasts this many times as long as
+#: each run that disagrees with it (:func:`_rest_runs`)
+REST_RUN_LEAD = 2.0
+#: times the runs that disagree with the rest change their sense of turning about it, in time order, for a swing
+#: (out, back, out, back: two swings); a turntable's rests at both ends and one faster step between change it twice
+REST_SWING_TURNS = 3
+
+
+def _rest_runs(means: np.ndarray, secs: np.ndarray, forces: np.ndarray) -> np.ndarray | None:
+    """Which of still runs whose gyro means ``means`` (k, 3) rad/s disagree are the rest, (k,) bool, or None where
+    that is not told; ``secs`` (k,) s their lengths, ``forces`` (k, 3) m/s² their specific forces. The rest is the
+    longest run with those within :data:`REST_GYR_STD` of it, where it lasts :data:`REST_RUN_LEAD` times as long as
+    each other run, each of those differs from it by a turn about its specific force that the accelerometer does
+    not see (:func:`_turn_like`), and they either all read more than it or turn back and forth about it
+    (:data:`REST_SWING_TURNS`): the peak rates of a swing about the vertical (a level body resting 20 s, then
+    swinging ±30° every 10 s: 1.3-s runs at the bias ± 18 °/s, whose disagreement left a 3 °/s bias unread and the
+    6D heading 104° RMS off, with exit 0). Otherwise a shorter run that reads less may be the rest and the long one
+    a slow steady turn (a turntable started after 10 s at rest): not told."""
+    k = int(np.argmax(secs))
+    keep = _norm(means - means[k]) <= REST_GYR_STD
+    if keep.all():  # each within REST_GYR_STD of the longest, if not of the median
+        return keep
+    if secs[k] < REST_RUN_LEAD * np.max(secs[~keep]):
+        return None
+    rest = np.median(means[keep], axis=0)
+    turns, f = means[~keep] - rest, forces[~keep]
+    if not all(_turn_like(w, g) for w, g in zip(turns, f)):
+        return None  # two rests whose gyro disagrees (a bias that changed): not told which holds
+    about = np.sign(np.einsum("ij,ij->i", turns, f))  # the sense of each turn about the specific force, in time
+    swings = np.count_nonzero(np.diff(about)) >= REST_SWING_TURNS
+    if np.min(_norm(means[~keep])) <= np.linalg.norm(rest) and not swings:
+        return None
+    return keep
+
+
 def rest_reading(bins: np.ndarray, sums: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, float] | None:
     """(median gyro over the still bins (3,) rad/s, their median specific force (3,) m/s², seconds of them) from
     :func:`still_sums`: bins whose gyro and accelerometer hardly vary (std under :data:`REST_GYR_STD` rad/s and
     :data:`REST_ACC_STD` m/s²), in runs of at least :data:`STILL_RUN_S` whose neighbouring bins' gyro means agree
     within REST_GYR_STD and whose accelerometer does not turn as the gyro says (:func:`_turning_run`: a slow steady
-    turn); None under STILL_RUN_S of them or where the runs' means disagree beyond REST_GYR_STD."""
+    turn); None under STILL_RUN_S of them. Where the runs' means disagree beyond REST_GYR_STD, the runs
+    :func:`_rest_runs` takes for the rest (the others: turns the accelerometer does not see); None where it tells
+    none."""
     if len(bins) == 0:
         return None
     b, S = merge_bins(np.asarray(bins), np.asarray(sums))
@@ -3455,7 +3492,13 @@ def rest_reading(bins: np.ndarray, sums: np.ndarray, dt: float) -> tuple[np.ndar
     rows = np.concatenate([np.arange(s, e) for s, e in runs])
     bias = np.median(gm[rows], axis=0)
     if np.max(_norm(means - bias)) > REST_GYR_STD:
-        return None
+        secs = np.array([np.sum(S[s:e, 12]) for s, e in runs]) * dt
+        forces = np.array([np.median(am[s:e], axis=0) for s, e in runs])
+        keep = _rest_runs(means, secs, forces)
+        if keep is None:
+            return None
+        rows = np.concatenate([np.arange(s, e) for (s, e), k in zip(runs, keep) if k])
+        bias = np.median(gm[rows], axis=0)
     return bias, np.median(am[rows], axis=0), float(np.sum(S[rows, 12]) * dt)
 
 
