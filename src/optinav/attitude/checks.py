@@ -3589,14 +3589,17 @@ def check_bias_range(
     a reading about the vertical is a turn or a bias as the field tells (:func:`field_tells_turn`): a level body
     turning steadily at 2.5–3.5 °/s (a boat, a turntable) was refused as a bias beyond the clip, which no rest
     detector tells from one. The remedy names a clip that holds it (an option of iframe; gd/cg/qn/mekf have the
-    bias from iframe's front end at its default clip, ``method``)."""
+    bias from iframe's front end at its default clip, ``method``). Within the clip, from :data:`SLOW_TURN` on, a
+    reading the field tells a turn is refused too (:func:`_slow_turn_error`)."""
     if reading is None:
         return
     bias, _, seconds = reading
     turn = _turn_or_bias(reading)
     worst, told = float(np.max(np.abs(bias))), None
-    if field is not None and _turn_like(bias, reading[1]) and worst > clip:
+    if field is not None and _turn_like(bias, reading[1]) and worst > min(clip, SLOW_TURN):
         told = field_tells_turn(*field(), bias)
+        if told and worst <= clip:
+            raise _slow_turn_error(bias, seconds, clip, method)
     if turn and told is not False and (whole is None or not bias_not_turn(*whole(), bias)):
         return
     if worst <= clip or told:
@@ -3613,6 +3616,28 @@ def check_bias_range(
         f"so the attitude would drift ({why})",
         "subtract the bias from the gyro (calibrate it, optinav apply), or pass "
         + (option if method == "iframe" else f"--method iframe {option}"),
+    )
+
+
+#: rad/s, the slowest steady turn read at rest that the field is asked about within the clip (:func:`_slow_turn_error`):
+#: taken for the bias, it turns the 9D heading by about its rate × tau_mag (5° at 0.5 °/s)
+SLOW_TURN = np.radians(0.5)
+
+
+def _slow_turn_error(reading: np.ndarray, seconds: float, clip: float, method: str) -> OptinavError:
+    """The refusal of a rest reading (3,) rad/s within ``clip`` that the magnetic field tells a steady turn of the
+    body (:func:`field_tells_turn`): the rest detector takes a turn under the clip for the gyro bias (rest needs
+    each axis of the low-passed rate within it, VQF's rule) and learns it, which no gyro and accelerometer tell
+    from a bias. A level body yawing at 0.5 / 1.0 / 1.5 °/s with a magnetometer ran at 3.9 / 7.8 / 11.6° 9D heading
+    RMSE (the field pulling the heading back over tau_mag), 6D 25-76° off in 55 s, with exit 0. The remedy: a clip
+    between the bias and the turn, half the reading (the field tells at most about a third of it bias)."""
+    wanted = float(f"{0.5 * float(np.max(np.abs(reading))):.2g}")
+    option = f"--option bias_clip={wanted:g} (bias_clip={wanted:g} in Python)"
+    return OptinavError(
+        f"{_reads_at_rest(reading, seconds)}, and the magnetic field turns in the body as that rate says: a steady "
+        f"turn, which the estimator would take for its gyro bias (within bias_clip, ±{clip:.4g} rad/s), so the "
+        "attitude would drift",
+        "pass " + (option if method == "iframe" else f"--method iframe {option}") + ", under the turn",
     )
 
 
