@@ -25,6 +25,7 @@ forward-right-down; "ENU": body right-forward-up). Without polarization the head
 from __future__ import annotations
 
 import functools
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import ClassVar
@@ -565,6 +566,30 @@ def _checked_imu(gyr, acc, mag=None, *, whole: bool = True):
     return np.ascontiguousarray(gyr), np.ascontiguousarray(acc), mag
 
 
+def _beside(fn):
+    """``fn()`` started in a thread, beside the caller's work (a numba kernel that releases the GIL runs on another
+    core); the returned callable waits for it and gives its result, or raises its error. Left unjoined (the
+    caller raised first), the daemon thread ends with its kernel and its result goes."""
+    out: dict = {}
+
+    def work():
+        try:
+            out["result"] = fn()
+        except BaseException as exc:  # noqa: BLE001 - raised again in the caller's thread
+            out["error"] = exc
+
+    thread = threading.Thread(target=work, daemon=True)
+    thread.start()
+
+    def join():
+        thread.join()
+        if "error" in out:
+            raise out["error"]
+        return out["result"]
+
+    return join
+
+
 def _timed(fn):
     """Set ``elapsed_s`` of the returned result to the wall time of the call (s)."""
 
@@ -665,6 +690,16 @@ def estimate(
         raise OptinavError(f"method {method} takes no magnetometer", "use --method iframe with --mag-columns")
     if offline and method != "iframe":
         raise OptinavError(f"method {method} has no offline mode", "use --method iframe with --offline")
+    gaps = find_gaps(dts)
+    ahead = None
+    if checks and method == "iframe" and mag is None and not gaps.size:
+        # the checks judge these inputs and change none of them: the estimate runs beside them (its kernel releases
+        # the GIL; 1 M samples of BROAD 02: 0.42 s, the checks 0.18 s), kept only where they pass
+        ahead = _beside(
+            lambda: run_iframe(
+                gyr, acc, dts, frame=frame, q0=None if q0 is None else _as_q0(q0), offline=offline, **opts
+            )
+        )
     if checks:
         step = float(np.median(dts))  # the typical step (s) the checks judge by
         clip = bias_clip(method, opts, input_stage)
@@ -724,7 +759,6 @@ def estimate(
             measured = online_fit and checked is not None and measured_before_fit(checked, tilt())
     if mag_hard_iron is not None:
         mag = mag - mag_hard_iron
-    gaps = find_gaps(dts)
     if gaps.size and not allow_gaps:
         i = int(gaps[0])
         raise OptinavError(
@@ -807,8 +841,12 @@ def estimate(
             segments=len(parts),
         ))  # fmt: skip
     if method == "iframe":
-        r = run_iframe(
-            gyr, acc, dts, mag=mag, frame=frame, q0=None if q0 is None else _as_q0(q0), offline=offline, **opts
+        r = (
+            ahead()
+            if ahead is not None
+            else run_iframe(
+                gyr, acc, dts, mag=mag, frame=frame, q0=None if q0 is None else _as_q0(q0), offline=offline, **opts
+            )
         )
         return _after(early, AttitudeEstimate(
             q_b_n=r.q_b_n,
