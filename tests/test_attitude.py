@@ -682,6 +682,27 @@ def test_every_filter_has_no_attitude_before_its_first_sample():
         assert np.isclose(np.linalg.norm(f.q_b_n), 1.0) and f.rest is not None, method
 
 
+def test_a_magnetometer_with_polarization_is_refused_naming_both(tmp_path, capsys):
+    """Both a magnetometer and polarization: estimate() chose mekf for the polarization and refused the
+    magnetometer, naming iframe, which refuses polarization, naming mekf. No estimator takes both: that is said
+    once, in Python and on the command line (exit 2), with the inputs to drop."""
+    from optinav.cli.main import main
+
+    d = synth(200, amp=1.0, seed=2)
+    pol = PolarizationMeasurement(d["aop"], d["sun"])
+    mag = np.tile([20.0, 0.0, 40.0], (200, 1))
+    for method in (None, "iframe", "mekf"):
+        with pytest.raises(OptinavError, match="a magnetometer and polarization together: no estimator takes both"):
+            estimate(d["gyr"], d["acc"], d["dt"], method=method, mag=mag, pol=pol)
+    path = tmp_path / "mp.csv"
+    rows = np.column_stack([np.arange(200) * d["dt"], d["gyr"], d["acc"], mag, np.degrees(d["aop"])])
+    np.savetxt(path, rows, delimiter=",", header="t,gx,gy,gz,ax,ay,az,mx,my,mz,aop_deg", comments="")
+    cmd = ["attitude", str(path), "--mag", "--pol-columns", "aop_deg", "--aop-unit", "deg", "--lat", "38"]
+    code = main([*cmd, "--out", str(tmp_path / "o.csv")])
+    err = capsys.readouterr().err
+    assert code == 2 and "no estimator takes both" in err and "--pol-columns" in err, err
+
+
 def test_every_filter_refuses_the_input_its_method_takes_not_in_one_line():
     """iframe's update_batch takes mag= and the others' pol=, so a loop over the methods passing either keyword
     ended in a TypeError (an unexpected keyword) where estimate() gives a one-line error naming the method.

@@ -671,7 +671,7 @@ def estimate(
         ``q_b_n`` (N, 4) q_b^n [w, x, y, z] plus per-sample flags, counts and σ [rad].
     """
     frame = frame_name(frame)
-    method = _method(method, pol)
+    method = _method(method, pol, mag is not None)
     opts = _options(method, options)
     gyr, acc, mag = _checked_imu(gyr, acc, mag)
     n = gyr.shape[0]

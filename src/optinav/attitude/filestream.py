@@ -1177,7 +1177,7 @@ def stream_attitude(
 
     o = options
     frame = frame_name(o.frame)
-    method = _method(o.method, True if pol is not None else None)
+    method = _method(o.method, True if pol is not None else None, o.uses_mag)
     if o.offline and method != "iframe":
         raise OptinavError(f"method {method} has no offline mode", "use --method iframe with --offline")
     want_mag = o.uses_mag

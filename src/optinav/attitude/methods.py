@@ -140,7 +140,15 @@ def _options(method: str, options: dict) -> dict:
     return opts
 
 
-def _method(method, pol) -> str:
+def _method(method, pol, mag: bool = False) -> str:
+    """The estimator's name for ``method`` (None: the default, iframe, or mekf with ``pol``); refused where it takes
+    no polarization, and a magnetometer (``mag``) with polarization (no estimator takes both)."""
+    if pol is not None and mag:
+        raise OptinavError(
+            "a magnetometer and polarization together: no estimator takes both yet (iframe takes the magnetometer; "
+            "mekf, gd, cg and qn the polarization)",
+            "drop one: the magnetometer (--mag, --mag-columns, --mag-file; iframe) or --pol-columns (mekf, gd, cg, qn)",
+        )
     if method is None:
         return "iframe" if pol is None else "mekf"
     m = str(method).lower()

@@ -245,7 +245,8 @@ def _checked(args):
     from optinav.core.rotations import frame_name, quat_from_euler
 
     options = parse_key_values(args.option)
-    method = _method(args.method, True if args.pol_columns else None)
+    mag = bool(args.mag or args.mag_columns or getattr(args, "mag_path", None))
+    method = _method(args.method, True if args.pol_columns else None, mag)
     check_options(method, options)
     from optinav.attitude.recording import CSV_HEADER
 
