@@ -1849,4 +1849,5 @@ def test_a_small_offset_fitted_late_online_uses_the_field_as_measured_before(see
     run = stream_attitude(path, tmp_path / "a.csv", AttitudeOptions(mag=True, frame="ENU"), chunk_rows=700)
     qf = np.loadtxt(tmp_path / "a.csv", delimiter=",", skiprows=1, usecols=(1, 2, 3, 4))
     assert run.estimate.mag_used_before_fit and run.estimate.mag_hard_iron_from == k
+    assert f"used from sample {k} on, as measured before it" in run.estimate.summary()
     assert rmse(np.degrees(heading_error(qf, q))) < bound

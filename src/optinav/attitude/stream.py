@@ -366,6 +366,7 @@ class StreamEstimator:
         self.mag_used: int | None = None  # samples with the magnetometer used (None: no magnetometer given)
         self.mag_rows = 0  # ... and those holding a magnetometer sample
         self.mag_offset_used = 0  # ... of them less a body-fixed offset fitted while disturbed (iframe)
+        self._used_before_fit = 0  # ... of them before the online fit's offset was subtracted
         self.pol_skipped: dict[str, int] | None = None  # None: no polarization given
         self.gyr_bias = None
         self.restart()
@@ -400,8 +401,12 @@ class StreamEstimator:
         f, dts = self._filter, np.ascontiguousarray(dts, dtype=float)
         self.n += dts.shape[0]
         if self.method == "iframe":
+            before = self.n - dts.shape[0] if self._fit is not None and self.mag_hard_iron_from is None else None
             r = f.update_batch(gyr, acc, mag, dt=dts)
             self.acc_hits += int(np.count_nonzero(~r.acc_used))
+            if before is not None and r.mag_used is not None:  # its rows before the fit passed (all while it has not)
+                k = self.mag_hard_iron_from
+                self._used_before_fit += int(np.count_nonzero(r.mag_used[: None if k is None else k - before]))
             if mag is not None:
                 self.mag_used = (self.mag_used or 0) + int(np.count_nonzero(r.mag_used))
                 self.mag_rows += int(np.count_nonzero(np.isfinite(mag).all(axis=1)))
@@ -449,10 +454,9 @@ class StreamEstimator:
 
     @property
     def mag_used_before_fit(self) -> bool:
-        """Whether the field was used as measured before :attr:`mag_hard_iron_from` (else unused there)."""
-        from optinav.attitude import _iframe
-
-        return self.mag_hard_iron_from is not None and bool(self._fit[_iframe.HF_MEASURED])
+        """Whether the field was used as measured before :attr:`mag_hard_iron_from` (else unused there), as
+        :attr:`AttitudeEstimate.mag_used_before_fit` tells it."""
+        return self.mag_hard_iron_from is not None and self._used_before_fit > 0
 
     @property
     def acc_threshold_hits(self) -> int:
