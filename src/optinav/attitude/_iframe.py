@@ -66,7 +66,10 @@ STEP_TAUS = 2.0
 # per axis, over a candidate bias step's STEP_TAUS rest_tau (S_STEP_T): n, Σg, Σg² of the band-limited rate in its
 # first half, then in its second (6 per axis)
 S_STEP_S = 145
-STATE_SIZE = 163
+# skylight polarization (:func:`run_pol`): s when it set δ itself (−1: the magnetometer had), s of its last sample,
+# 1 once it has set δ or corrected it, the last sample's flag (1 used)
+S_P_T0, S_P_LAST, S_P_INIT, S_POL_USED = 163, 164, 165, 166
+STATE_SIZE = 167
 
 #: s, the rest detector reads gyro and accelerometer through a first-order low-pass of this time constant (a band
 #: of about 1/(4·REST_BAND_TAU) = 250 Hz): white noise of a given density (rad/s/√Hz, m/s²/√Hz) then deviates from
@@ -124,7 +127,16 @@ P_MAG_CUR_TAU = 26  # s, low-pass of |m| and dip for the new-field candidate; 0 
 P_MOTION_GATE = 27  # -, a motion update whose correction rate exceeds this many σ of what bias explains is skipped
 P_HI_TAU = 28  # s, averaging time of the body-fixed field offset fitted while the field is disturbed; 0 = off
 P_REST_TAU_ACC = 29  # s, the accelerometer's low-pass time constant in I while at rest; 0 = tau_acc
-PAR_SIZE = 30
+P_TAU_POL = 30  # s, the polarization heading correction's time constant
+PAR_SIZE = 31
+
+#: the least |dα′/dφ| (AoP per heading) a polarization sample must have to correct the heading: the heading's
+#: error is the AoP's divided by it (a level zenith-viewing sensor: 1; a sensor viewing near the horizon towards
+#: the sun's vertical plane: 0, the AoP then says nothing of the heading)
+POL_MIN_SLOPE = 0.2
+#: per-sample polarization outcomes of :func:`run_pol`: none given, used, sun within the minimum separation of
+#: the viewing axis, no heading explains the AoP at this tilt (or too weakly: POL_MIN_SLOPE)
+POL_NONE, POL_USED, POL_NEAR_ZENITH, POL_UNRESOLVED = 0, 1, 2, 3
 
 
 @numba.njit(**_NJ)
@@ -837,6 +849,116 @@ def run(st, par, gyr, acc, mag, dt, out, flags, bias, moff, restart=-1):
             g, a = gyr[i], acc[i]
             step(st, par, g[0], g[1], g[2], a[0], a[1], a[2], nan, nan, nan, h)
             _emit(st, i, out, flags, bias)
+
+
+@numba.njit(**_NJ)
+def _pol_update(st, par, sx, sy, sz, cbm, aop, min_d2, h):
+    """The heading correction δ from one skylight-polarization sample (the unit sun vector (sx, sy, sz) in n, the
+    sensor mounting ``cbm`` C_b^m, the measured AoP ``aop`` rad, ``min_d2`` sin² of the least sun separation from
+    the viewing axis; ``h`` s the step), after :func:`step`: the heading φ at which the AoP predicted through R_up(φ) ⊗ t
+    (t = q_c ⊗ q_g) and C_b^m equals the measured one, in closed form (the E-vector (y, −x) of the sun at
+    (x, y, ·) in m parallel to (cos α, sin α): A + B cos φ + C sin φ = 0), of its two roots the one nearest δ
+    (the AoP is axial: a level sensor's roots are π apart). δ moves toward it with the gain of a running mean
+    from the first sample growing to hp/tau_pol (hp the time since the previous sample), or is set there by the
+    first sample when no magnetometer has set it; the output st[S_Q] is turned by the change. Returns the
+    sample's POL_* outcome. Measurement model: :func:`optinav.attitude._kernels._model`."""
+    ux, uy, uz = par[P_UP], par[P_UP + 1], par[P_UP + 2]
+    t0, t1, t2, t3 = _qmul(
+        st[S_QC], st[S_QC + 1], st[S_QC + 2], st[S_QC + 3], st[S_QG], st[S_QG + 1], st[S_QG + 2], st[S_QG + 3]
+    )
+    hp = st[S_TIME] - st[S_P_LAST] if st[S_P_LAST] > 0.0 else h
+    st[S_P_LAST] = st[S_TIME]
+    st[S_POL_USED] = 0.0
+    # R_up(−φ)s = su·u + cos φ·s_h − sin φ·(u × s): three fixed vectors, each into the body (t*) and m
+    su = sx * ux + sy * uy + sz * uz
+    hx, hy, hz = sx - su * ux, sy - su * uy, sz - su * uz
+    vx, vy, vz = -(uy * hz - uz * hy), -(uz * hx - ux * hz), -(ux * hy - uy * hx)
+    xs = np.empty(3)
+    ys = np.empty(3)
+    for k in range(3):
+        if k == 0:
+            ax, ay, az = _rot(t0, -t1, -t2, -t3, su * ux, su * uy, su * uz)
+        elif k == 1:
+            ax, ay, az = _rot(t0, -t1, -t2, -t3, hx, hy, hz)
+        else:
+            ax, ay, az = _rot(t0, -t1, -t2, -t3, vx, vy, vz)
+        xs[k] = cbm[0, 0] * ax + cbm[0, 1] * ay + cbm[0, 2] * az
+        ys[k] = cbm[1, 0] * ax + cbm[1, 1] * ay + cbm[1, 2] * az
+    de = st[S_DELTA]
+    cd, sd = math.cos(de), math.sin(de)
+    x = xs[0] + xs[1] * cd + xs[2] * sd
+    y = ys[0] + ys[1] * cd + ys[2] * sd
+    if x * x + y * y < min_d2:  # at the current heading, as every estimator's model judges it
+        return POL_NEAR_ZENITH
+    ca, sa = math.cos(aop), math.sin(aop)
+    a = xs[0] * ca + ys[0] * sa
+    b = xs[1] * ca + ys[1] * sa
+    c = xs[2] * ca + ys[2] * sa
+    r = math.sqrt(b * b + c * c)
+    if not (r > 0.0 and abs(a) <= r):
+        return POL_UNRESOLVED
+    p0, w = math.atan2(c, b), math.acos(-a / r)
+    e1 = p0 + w - de
+    e2 = p0 - w - de
+    e1 = math.atan2(math.sin(e1), math.cos(e1))
+    e2 = math.atan2(math.sin(e2), math.cos(e2))
+    err = e1 if abs(e1) <= abs(e2) else e2
+    phi = de + err
+    cp, sp = math.cos(phi), math.sin(phi)
+    x = xs[0] + xs[1] * cp + xs[2] * sp
+    y = ys[0] + ys[1] * cp + ys[2] * sp
+    dx, dy = xs[2] * cp - xs[1] * sp, ys[2] * cp - ys[1] * sp
+    d = x * x + y * y
+    if not abs(x * dy - y * dx) >= POL_MIN_SLOPE * d:  # |dα′/dφ| = |x y′ − y x′| / d
+        return POL_UNRESOLVED
+    if st[S_P_INIT] == 0.0 and st[S_M_INIT] == 0.0:
+        st[S_P_T0] = st[S_TIME]
+        k = 1.0
+    elif st[S_P_T0] >= 0.0 and st[S_P_INIT] != 0.0:
+        k = min(1.0, hp / min(par[P_TAU_POL], max(st[S_TIME] - st[S_P_T0], hp)))
+    else:
+        st[S_P_T0] = -1.0
+        k = min(1.0, hp / par[P_TAU_POL])
+    st[S_P_INIT] = 1.0
+    dd = k * err
+    st[S_DELTA] = de + dd
+    # step's output R_up(δ) ⊗ t ⊗ (latency) turned by the change of δ
+    h0, h1, h2, h3 = _rotvec_q(dd * ux, dd * uy, dd * uz)
+    o0, o1, o2, o3 = _qmul(h0, h1, h2, h3, st[S_Q], st[S_Q + 1], st[S_Q + 2], st[S_Q + 3])
+    _store_q(st, S_Q, o0, o1, o2, o3)
+    st[S_POL_USED] = 1.0
+    return POL_USED
+
+
+@numba.njit(**_NJ)
+def run_pol(st, par, gyr, acc, mag, dt, use, sn, cbm, aop, min_d2, out, flags, bias, moff, pol, restart=-1):
+    """:func:`run` with skylight polarization: after each :func:`step`, :func:`_pol_update` where ``use`` (N,)
+    (sun ``sn`` (1 or N, 3) in n, mounting ``cbm`` (3, 3), AoP ``aop`` (N,) rad, ``min_d2``); ``pol`` (N,) int8
+    its POL_* outcome per sample. A loop of its own: the 6D and 9D loops of :func:`run` stay as they are."""
+    n = gyr.shape[0]
+    one = dt.shape[0] == 1
+    has = mag.shape[0] == n
+    nan = np.nan
+    for i in range(n):
+        h = dt[0] if one else dt[i]
+        g, a = gyr[i], acc[i]
+        if has:
+            m = mag[i]
+            if i == restart:
+                mag_restart(st)
+            ok = step(st, par, g[0], g[1], g[2], a[0], a[1], a[2], m[0], m[1], m[2], h)
+        else:
+            ok = step(st, par, g[0], g[1], g[2], a[0], a[1], a[2], nan, nan, nan, h)
+        pol[i] = POL_NONE
+        st[S_POL_USED] = 0.0
+        if ok and use[i]:
+            j = i if sn.shape[0] > 1 else 0
+            pol[i] = _pol_update(st, par, sn[j, 0], sn[j, 1], sn[j, 2], cbm, aop[i], min_d2, h)
+        _emit(st, i, out, flags, bias)
+        if has:
+            c = st[S_MAG_CORR] != 0.0
+            for k in range(3):
+                moff[i, k] = st[S_HI_B + k] if c else 0.0
 
 
 @numba.njit(**_NJ)

@@ -80,7 +80,7 @@ from optinav.attitude.iframe import (
     run_iframe,
 )
 from optinav.attitude.iframe import input_stage as _input_stage
-from optinav.attitude.methods import DEFAULTS, METHODS, _method, _options, bias_clip, variant
+from optinav.attitude.methods import DEFAULTS, METHODS, _method, _options, bias_clip, offline_pol_refused, variant
 from optinav.attitude.measurement import (
     PolarizationMeasurement,
     as_c_b_m,
@@ -690,6 +690,8 @@ def estimate(
         raise OptinavError(f"method {method} takes no magnetometer", "use --method iframe with --mag-columns")
     if offline and method != "iframe":
         raise OptinavError(f"method {method} has no offline mode", "use --method iframe with --offline")
+    if offline and pol is not None:
+        raise offline_pol_refused()
     gaps = find_gaps(dts)
     ahead = None
     if checks and method == "iframe" and mag is None and not gaps.size:
@@ -697,7 +699,7 @@ def estimate(
         # the GIL; 1 M samples of BROAD 02: 0.42 s, the checks 0.18 s), kept only where they pass
         ahead = _beside(
             lambda: run_iframe(
-                gyr, acc, dts, frame=frame, q0=None if q0 is None else _as_q0(q0), offline=offline, **opts
+                gyr, acc, dts, pol=pol, frame=frame, q0=None if q0 is None else _as_q0(q0), offline=offline, **opts
             )
         )
     if checks:
@@ -783,7 +785,7 @@ def estimate(
         # before the fit passed, the field as measured: the estimate of those rows alone (its magnetic part then
         # restarts, as the streamed filter's does: _iframe.mag_restart; the tilt and the bias never see the field)
         early = None if not measured else estimate(gyr[:hi_from], acc[:hi_from], dts[:hi_from] if dts.shape[0] > 1 else dts[0], method=method,
-                         frame=frame, q0=q0, mag=raw[:hi_from], allow_gaps=allow_gaps, checks=False, **options)  # fmt: skip
+                         frame=frame, q0=q0, mag=raw[:hi_from], pol=None if pol is None else pol.select(slice(0, hi_from)), allow_gaps=allow_gaps, checks=False, **options)  # fmt: skip
         mag = mag.copy()
         mag[:hi_from] = np.nan
     mag_rows = None if mag is None else int(np.count_nonzero(np.isfinite(raw if online_fit else mag).all(axis=1)))
@@ -845,7 +847,15 @@ def estimate(
             ahead()
             if ahead is not None
             else run_iframe(
-                gyr, acc, dts, mag=mag, frame=frame, q0=None if q0 is None else _as_q0(q0), offline=offline, **opts
+                gyr,
+                acc,
+                dts,
+                mag=mag,
+                pol=pol,
+                frame=frame,
+                q0=None if q0 is None else _as_q0(q0),
+                offline=offline,
+                **opts,
             )
         )
         return _after(early, AttitudeEstimate(
@@ -865,6 +875,8 @@ def estimate(
             offline=offline,
             input_stage=True,
             acc_threshold_hits=int(np.count_nonzero(~r.acc_used)),
+            pol_used=0 if r.pol_used is None else int(np.count_nonzero(r.pol_used)),
+            pol_skipped=r.pol_skipped or {},
         ))  # fmt: skip
     front = None
     if input_stage:

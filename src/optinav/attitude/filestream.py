@@ -1171,7 +1171,7 @@ def stream_attitude(
     :class:`~optinav.core.results.Truth` compared with the estimate (:attr:`StreamedEstimate.truth_comparison`).
     Bad input raises :class:`OptinavError` before anything is written under ``out``."""
     from optinav.attitude.checks import aop_range
-    from optinav.attitude.methods import _method, _options, bias_clip
+    from optinav.attitude.methods import _method, _options, bias_clip, offline_pol_refused
     from optinav.core.progress import progress_blocks, step
     from optinav.core.rotations import frame_name
 
@@ -1183,6 +1183,8 @@ def stream_attitude(
     want_mag = o.uses_mag
     if want_mag and method != "iframe":
         raise OptinavError(f"method {method} takes no magnetometer", "use --method iframe with --mag-columns")
+    if o.offline and pol is not None:
+        raise offline_pol_refused()
     StreamEstimator.check(method, o.options)
     # a simulator's truth CSV holds q_b_n of the frame its STEM.truth.json names (the CSV does not say it)
     tf = None if truth is None else truth_frame(getattr(truth, "truth", truth), frame)
@@ -1339,7 +1341,7 @@ def _estimate(e: StreamEstimator) -> StreamedEstimate:
         e.method,
         e.frame,
         e.summary(),
-        pol_used=int(e.counts[0]) if e.method != "iframe" else 0,
+        pol_used=int(e.counts[0]),
         pol_skipped=skipped,
         acc_threshold_hits=e.acc_threshold_hits,
         gyr_bias=None if e.gyr_bias is None else np.array(e.gyr_bias),

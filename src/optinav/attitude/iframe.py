@@ -70,7 +70,7 @@ import numpy as np
 
 from optinav.attitude import _iframe as _k
 from optinav.attitude.checks import MIN_GAP_S, gap_limit
-from optinav.attitude.methods import IFRAME_DEFAULTS
+from optinav.attitude.methods import IFRAME_DEFAULTS, offline_pol_refused
 from optinav.core.rotations import DEFAULT_FRAME, frame_name
 from optinav.errors import OptinavError
 
@@ -106,7 +106,7 @@ _ORDER = (
     "mag_new_time",
     "tau_mag_ref",
 )  # then latency, bias_loop, mag_current_tau, motion_gate, hard_iron_tau, rest_tau_acc at P_LATENCY … P_REST_TAU_ACC
-_POSITIVE = ("tau_acc", "rest_tau", "bias_rest", "gravity", "tau_mag", "tau_mag_ref")
+_POSITIVE = ("tau_acc", "rest_tau", "bias_rest", "gravity", "tau_mag", "tau_mag_ref", "tau_pol")
 
 #: the largest ``latency`` (s) taken: the output is predicted that far with the gyro, which only holds for a
 #: delay far shorter than the motion's time scale
@@ -136,6 +136,7 @@ def _params(frame: str, opts: dict) -> np.ndarray:
     p[_k.P_MOTION_GATE] = opts["motion_gate"]
     p[_k.P_HI_TAU] = opts["hard_iron_tau"]
     p[_k.P_REST_TAU_ACC] = opts["rest_tau_acc"]
+    p[_k.P_TAU_POL] = opts["tau_pol"]
     return p
 
 
@@ -159,8 +160,9 @@ class FilterRun:
     after each sample (mekf: the input stage's plus its own state); ``state`` iframe's final state;
     ``att_std`` (N, 3) rad, mekf's attitude-error σ about the body axes; ``mag_offset`` (N, 3), magnetometer
     unit, iframe's body-fixed field offset the sample's field was used less (0 where used as measured or not
-    used). The names are those of :class:`~optinav.attitude.AttitudeEstimate`, whose ``gyr_bias`` is the last
-    row's.
+    used); ``pol_used`` (N,) bool, the polarization sample corrected iframe's heading (None without ``pol``), and
+    ``pol_skipped`` the chunk's polarization samples left out by reason. The names are those of
+    :class:`~optinav.attitude.AttitudeEstimate`, whose ``gyr_bias`` is the last row's and ``pol_used`` a count.
     """
 
     q_b_n: np.ndarray
@@ -171,6 +173,8 @@ class FilterRun:
     state: np.ndarray | None = None
     att_std: np.ndarray | None = None
     mag_offset: np.ndarray | None = None
+    pol_used: np.ndarray | None = None
+    pol_skipped: dict | None = None
 
     @property
     def offset_used(self) -> np.ndarray | None:
@@ -192,6 +196,26 @@ def _run(st, par, gyr, acc, mag, dts, restart: int = -1) -> FilterRun:
     _k.run(st, par, gyr, acc, mag, dts, out, flags, bias, moff, restart)
     f = flags.astype(bool)
     return FilterRun(out, f[:, 0], f[:, 1], f[:, 2], bias, st, mag_offset=moff if mag.shape[0] else None)
+
+
+def _run_pol(st, par, gyr, acc, mag, dts, pol, frame: str, restart: int = -1) -> FilterRun:
+    """:func:`_run` with the polarization ``pol`` (:class:`~optinav.attitude.PolarizationMeasurement`, N samples)
+    correcting the heading (:func:`_iframe.run_pol`); its use and skipped counts in ``pol_used``/``pol_skipped``."""
+    from optinav.attitude.measurement import pol_inputs
+
+    use, sn, cbm, aop, min_d2, skipped = pol_inputs(pol, gyr.shape[0], frame, "the IMU")
+    n = gyr.shape[0]
+    out, flags, bias = np.empty((n, 4)), np.empty((n, 4), np.int8), np.empty((n, 3))
+    moff, code = np.empty((mag.shape[0], 3)), np.empty(n, np.int8)
+    _k.run_pol(st, par, gyr, acc, mag, dts, use, sn, cbm, aop, min_d2, out, flags, bias, moff, code, restart)
+    f = flags.astype(bool)
+    skipped = dict(skipped)
+    skipped["heading_unresolved"] = int(np.count_nonzero(code == _k.POL_UNRESOLVED))
+    skipped["sun_near_sensor_zenith"] = int(np.count_nonzero(code == _k.POL_NEAR_ZENITH))
+    return FilterRun(
+        out, f[:, 0], f[:, 1], f[:, 2], bias, st, mag_offset=moff if mag.shape[0] else None,
+        pol_used=code == _k.POL_USED, pol_skipped=skipped,
+    )  # fmt: skip
 
 
 def online_fit_state(measured: bool = False) -> np.ndarray:
@@ -308,14 +332,21 @@ def _fuse(qf, qb, share):
 
 
 def run_iframe(
-    gyr, acc, dts, *, mag=None, frame: str = DEFAULT_FRAME, q0=None, offline: bool = False, **options
+    gyr, acc, dts, *, mag=None, pol=None, frame: str = DEFAULT_FRAME, q0=None, offline: bool = False, **options
 ) -> FilterRun:
     """Run the estimator on checked (N, 3) float arrays; ``dts`` (1,) or (N,) s; ``mag`` (N, 3) any unit or
-    None. Options override :data:`IFRAME_DEFAULTS`."""
+    None; ``pol`` a :class:`~optinav.attitude.PolarizationMeasurement` or None (online only). Options override
+    :data:`IFRAME_DEFAULTS`."""
     opts = dict(IFRAME_DEFAULTS)
     opts.update(options)
     par = _params(frame, opts)
     m = np.zeros((0, 3)) if mag is None else np.ascontiguousarray(mag, dtype=float)
+    if pol is not None:
+        if offline:
+            raise offline_pol_refused()
+        r = _run_pol(_new_state(opts, q0), par, gyr, acc, m, dts, pol, frame)
+        r.mag_used = None if mag is None else r.mag_used
+        return r
     if not offline:
         r = _run(_new_state(opts, q0), par, gyr, acc, m, dts)
         r.mag_used = None if mag is None else r.mag_used
@@ -723,8 +754,8 @@ class AttitudeFilter(StreamGaps):
             dt)``, the form of the other methods' filters).
         dt : float, (N,) array or None
             Steps [s]; None: the filter's.
-        pol : None
-            Refused unless None: iframe takes no polarization (the other methods' filters do).
+        pol : PolarizationMeasurement or None
+            The chunk's skylight-polarization samples (N of them): heading corrections as :func:`run_iframe`'s.
 
         Returns
         -------
@@ -732,13 +763,11 @@ class AttitudeFilter(StreamGaps):
             ``q_b_n`` (N, 4) q_b^n, ``rest``/``acc_used``/``mag_used`` (N,) flags (``mag_used`` None without
             ``mag``), ``gyr_bias`` (N, 3) [rad/s] after each sample, ``mag_offset`` (N, 3) [mag's unit] the
             body-fixed offset a disturbed field was used less (0 where used as measured or not at all; None
-            without ``mag``); N = 0 gives empty arrays.
+            without ``mag``), ``pol_used`` (N,) and ``pol_skipped`` (None without ``pol``); N = 0 gives empty
+            arrays.
         """
         from optinav.attitude.estimators import _as_dt, _checked_imu
-        from optinav.attitude.methods import _method
 
-        if pol is not None:
-            _method("iframe", pol)  # refused as estimate() refuses it
         if mag is not None and np.ndim(mag) < 2:  # a step in mag's place, as update() takes it
             if dt is not None:
                 raise OptinavError("update_batch got the step twice (third argument and dt=)", "pass dt= only")
@@ -762,7 +791,11 @@ class AttitudeFilter(StreamGaps):
             row0 = self._fit[_k.HF_ROWS]
             m, _ = hard_iron_online(m, d, self._fit, g)
             restart = first_fitted_row(self._fit, row0)
-        r = _run(self._state, self._par, g, a, np.zeros((0, 3)) if m is None else m, d, restart)
+        rows = np.zeros((0, 3)) if m is None else m
+        if pol is None:
+            r = _run(self._state, self._par, g, a, rows, d, restart)
+        else:
+            r = _run_pol(self._state, self._par, g, a, rows, d, pol, self.frame, restart)
         r.state = self._state.copy()  # the chunk's end state, not the filter's live one
         r.mag_used = None if m is None else r.mag_used  # no magnetometer given: None, as estimate() reports it
         return r
@@ -805,6 +838,11 @@ class AttitudeFilter(StreamGaps):
     def mag_used(self) -> bool | None:
         """Whether the last sample's magnetometer corrected the heading (None until a magnetometer sample came)."""
         return bool(self._state[_k.S_MAG_USED]) if self._state[_k.S_M_SEEN] else None
+
+    @property
+    def pol_used(self) -> bool | None:
+        """Whether the last sample's polarization corrected the heading (None until a polarization sample came)."""
+        return bool(self._state[_k.S_POL_USED]) if self._state[_k.S_P_LAST] else None
 
     @property
     def mag_offset(self) -> np.ndarray | None:

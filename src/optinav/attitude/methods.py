@@ -40,6 +40,7 @@ IFRAME_DEFAULTS: dict[str, float] = {
     "hard_iron_tau": 10.0,  # s, averaging time of a body-fixed field offset fitted while disturbed; 0 = off
     "mag_current_tau": 0.05,  # s, low-pass of the field's norm and dip seen by the new-field candidate; 0 = none
     "latency": 0.0,  # s, how late the IMU's samples are: the output is predicted that far ahead
+    "tau_pol": 2.0,  # s, heading correction time constant of skylight polarization (pol=)
 }
 
 #: the estimators of :func:`optinav.attitude.estimate`
@@ -141,22 +142,19 @@ def _options(method: str, options: dict) -> dict:
 
 
 def _method(method, pol, mag: bool = False) -> str:
-    """The estimator's name for ``method`` (None: the default, iframe, or mekf with ``pol``); refused where it takes
-    no polarization, and a magnetometer (``mag``) with polarization (no estimator takes both)."""
-    if pol is not None and mag:
-        raise OptinavError(
-            "a magnetometer and polarization together: no estimator takes both yet (iframe takes the magnetometer; "
-            "mekf, gd, cg and qn the polarization)",
-            "drop one: the magnetometer (--mag, --mag-columns, --mag-file; iframe) or --pol-columns (mekf, gd, cg, qn)",
-        )
+    """The estimator's name for ``method`` (None: the default, iframe; mekf with ``pol`` alone; iframe, the one
+    that takes both, with ``pol`` and a magnetometer ``mag``)."""
     if method is None:
-        return "iframe" if pol is None else "mekf"
-    m = str(method).lower()
-    if m == "iframe" and pol is not None:
-        raise OptinavError(
-            "method iframe takes no polarization input", "use --method mekf (or gd, cg, qn) with --pol-columns"
-        )
-    return m
+        return "iframe" if pol is None or mag else "mekf"
+    return str(method).lower()
+
+
+def offline_pol_refused() -> OptinavError:
+    """The refusal of polarization offline (its backward pass and heading smoother take the magnetometer only)."""
+    return OptinavError(
+        "--offline takes no polarization yet (the offline heading is smoothed from the magnetometer only)",
+        "drop --offline (offline=False) to use the polarization online",
+    )
 
 
 def bias_clip(method: str, opts: dict, input_stage: bool) -> float | None:

@@ -389,7 +389,7 @@ class StreamEstimator:
         self, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, mag: np.ndarray | None = None, pol=None
     ) -> np.ndarray:
         """q_b^n (n, 4) of the next block: gyr (n, 3) rad/s, acc (n, 3) m/s², dts (n,) s, ``mag`` (n, 3) any unit
-        (iframe) and ``pol`` a :class:`~optinav.attitude.PolarizationMeasurement` of the block (not iframe): the
+        (iframe) and ``pol`` a :class:`~optinav.attitude.PolarizationMeasurement` of the block: the
         segment's filter's :meth:`update_batch`, its per-block outputs summed for :meth:`summary`."""
         if mag is not None and self.method != "iframe":
             raise OptinavError(f"method {self.method} takes no magnetometer", "use --method iframe with --mag-columns")
@@ -402,8 +402,17 @@ class StreamEstimator:
         self.n += dts.shape[0]
         if self.method == "iframe":
             before = self.n - dts.shape[0] if self._fit is not None and self.mag_hard_iron_from is None else None
-            r = f.update_batch(gyr, acc, mag, dt=dts)
+            r = f.update_batch(gyr, acc, mag, dt=dts, pol=pol)
             self.acc_hits += int(np.count_nonzero(~r.acc_used))
+            if pol is not None:  # counted as the other methods' kernels count them
+                from optinav.attitude import _kernels
+
+                skipped = dict(r.pol_skipped)
+                self.counts[_kernels.C_POL_USED] += int(np.count_nonzero(r.pol_used))
+                self.counts[_kernels.C_POL_NEAR_ZENITH] += skipped.pop("sun_near_sensor_zenith")
+                self.pol_skipped = self.pol_skipped or {}
+                for k, v in skipped.items():
+                    self.pol_skipped[k] = self.pol_skipped.get(k, 0) + v
             if before is not None and r.mag_used is not None:  # its rows before the fit passed (all while it has not)
                 k = self.mag_hard_iron_from
                 self._used_before_fit += int(np.count_nonzero(r.mag_used[: None if k is None else k - before]))
