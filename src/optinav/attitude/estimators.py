@@ -2,9 +2,10 @@
 
 Methods (one measurement model, :mod:`optinav.attitude.measurement`; per-sample loops are numba kernels):
 
-* ``"iframe"`` (default without polarization) — gyro + accelerometer (+ magnetometer) filtered in an
-  almost-inertial frame with rest detection and a gyro-bias filter, after VQF (Laidig & Seel 2023); online
-  or offline (forward–backward); see :mod:`optinav.attitude.iframe`. No polarization input.
+* ``"iframe"`` (default without polarization, and with polarization and a magnetometer) — gyro +
+  accelerometer (+ magnetometer, + polarization online) filtered in an almost-inertial frame with rest detection
+  and a gyro-bias filter, after VQF (Laidig & Seel 2023); online or offline (forward–backward); see
+  :mod:`optinav.attitude.iframe`.
 * ``"gd"`` — gradient descent, Madgwick's filter (Madgwick 2010): q̇ = ½ q⊗ω − β ∇F/‖∇F‖.
 * ``"cg"`` — conjugate gradient: the same update with the Polak–Ribière+ conjugate direction.
 * ``"qn"`` — quasi-Newton as published by Jin et al. (2021, §2.3): the gyro propagates q, then one
@@ -637,7 +638,8 @@ def estimate(
     pol : PolarizationMeasurement or None
         Skylight-polarization samples.
     method : str or None
-        "iframe" (default without ``pol``), "mekf" (default with ``pol``), "qn", "gd" or "cg".
+        "iframe" (default without ``pol``, and with ``pol`` and ``mag``), "mekf" (default with ``pol`` alone),
+        "qn", "gd" or "cg".
     frame : str
         Navigation frame, ``"ned"`` or ``"enu"``.
     q0 : (4,) array or None

@@ -21,6 +21,9 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   error (m − Cᵀe = Cᵀ∂e/∂φ·δφ + b) and, once the body has turned and tilted enough to tell them apart and the
   residual is small and below that of a field fixed in the room, the field less it goes through the same gates
   (the offline heading uses the measured fields only);
+* skylight polarization (online): after each step the heading at which the predicted AoP equals the measured
+  one (closed form, the root nearest the current heading) moves δ with a running mean growing to ``tau_pol`` s
+  (:func:`_iframe._pol_update`), beside the magnetometer's corrections;
 * the motion bias update closes a loop through the low-pass: its innovation is clipped at ``bias_clip`` and its
   variance floored so that the loop is never faster than ``bias_loop`` × ``tau_acc`` (a start in motion); a
   correction rate beyond ``motion_gate`` σ of what the bias uncertainty explains is a sustained acceleration (a

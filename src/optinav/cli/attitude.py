@@ -60,7 +60,8 @@ def register(sub) -> None:
             (default: accelerometer filtered in an almost-inertial frame, rest detection, gyro bias, optional
             magnetometer with --mag, --offline smoothing; after VQF, Laidig & Seel 2023), the quasi-Newton
             filter of Jin et al. 2021 (qn), gradient descent (gd, Madgwick), conjugate gradient (cg) or a
-            multiplicative EKF with gyro bias (mekf; the default with --pol-columns). gd/cg/qn/mekf run after
+            multiplicative EKF with gyro bias (mekf; the default with --pol-columns alone; iframe takes
+            --pol-columns too, and is the default with --mag and --pol-columns together). gd/cg/qn/mekf run after
             iframe's input stage unless --no-input-stage (then exactly as published). Without polarization or
             magnetometer the roll and pitch are observed and the heading follows the gyro. With --pol-columns the file's angle of
             polarization (a zenith-viewing sensor, reference axis forward; see docs/methods/attitude.md)
@@ -82,7 +83,7 @@ def register(sub) -> None:
     p.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet, a ROS bag or a PX4 ULog (--topic)")
     add_input_options(p)
     add_gyro_file_options(p)
-    p.add_argument("--method", choices=METHOD_NAMES, help="estimator (default iframe; mekf with --pol-columns)")
+    p.add_argument("--method", choices=METHOD_NAMES, help="estimator (default iframe; mekf with --pol-columns alone)")
     p.add_argument(
         "--offline",
         action="store_true",
