@@ -66,10 +66,11 @@ STEP_TAUS = 2.0
 # per axis, over a candidate bias step's STEP_TAUS rest_tau (S_STEP_T): n, Σg, Σg² of the band-limited rate in its
 # first half, then in its second (6 per axis)
 S_STEP_S = 145
-# skylight polarization (:func:`run_pol`): s when it set δ itself (−1: the magnetometer had), s of its last sample,
-# 1 once it has set δ or corrected it, the last sample's flag (1 used)
+# skylight polarization (:func:`run_pol`): s before its first used sample, s of its last sample, 1 once it has set
+# δ, the last sample's flag (1 used)
 S_P_T0, S_P_LAST, S_P_INIT, S_POL_USED = 163, 164, 165, 166
-STATE_SIZE = 167
+S_P_USED_T = 167  # s of its last used sample
+STATE_SIZE = 168
 
 #: s, the rest detector reads gyro and accelerometer through a first-order low-pass of this time constant (a band
 #: of about 1/(4·REST_BAND_TAU) = 250 Hz): white noise of a given density (rad/s/√Hz, m/s²/√Hz) then deviates from
@@ -128,7 +129,8 @@ P_MOTION_GATE = 27  # -, a motion update whose correction rate exceeds this many
 P_HI_TAU = 28  # s, averaging time of the body-fixed field offset fitted while the field is disturbed; 0 = off
 P_REST_TAU_ACC = 29  # s, the accelerometer's low-pass time constant in I while at rest; 0 = tau_acc
 P_TAU_POL = 30  # s, the polarization heading correction's time constant
-PAR_SIZE = 31
+P_MAG_POL_TH = 31  # rad, a field's azimuth beyond this from the heading polarization holds is not used; 0 = off
+PAR_SIZE = 32
 
 #: the least |dα′/dφ| (AoP per heading) a polarization sample must have to correct the heading: the heading's
 #: error is the AoP's divided by it (a level zenith-viewing sensor: 1; a sensor viewing near the horizon towards
@@ -859,8 +861,9 @@ def _pol_update(st, par, sx, sy, sz, cbm, aop, min_d2, h):
     (t = q_c ⊗ q_g) and C_b^m equals the measured one, in closed form (the E-vector (y, −x) of the sun at
     (x, y, ·) in m parallel to (cos α, sin α): A + B cos φ + C sin φ = 0), of its two roots the one nearest δ
     (the AoP is axial: a level sensor's roots are π apart). δ moves toward it with the gain of a running mean
-    from the first sample growing to hp/tau_pol (hp the time since the previous sample), or is set there by the
-    first sample when no magnetometer has set it; the output st[S_Q] is turned by the change. Returns the
+    from the first used sample (which sets it there, whatever a magnetometer set: the polarization's heading is
+    the true one, and :func:`_pol_gate` then holds the field to it) growing to hp/tau_pol (hp the time since the
+    previous sample); the output st[S_Q] is turned by the change. Returns the
     sample's POL_* outcome. Measurement model: :func:`optinav.attitude._kernels._model`."""
     ux, uy, uz = par[P_UP], par[P_UP + 1], par[P_UP + 2]
     t0, t1, t2, t3 = _qmul(
@@ -911,23 +914,48 @@ def _pol_update(st, par, sx, sy, sz, cbm, aop, min_d2, h):
     d = x * x + y * y
     if not abs(x * dy - y * dx) >= POL_MIN_SLOPE * d:  # |dα′/dφ| = |x y′ − y x′| / d
         return POL_UNRESOLVED
-    if st[S_P_INIT] == 0.0 and st[S_M_INIT] == 0.0:
-        st[S_P_T0] = st[S_TIME]
-        k = 1.0
-    elif st[S_P_T0] >= 0.0 and st[S_P_INIT] != 0.0:
-        k = min(1.0, hp / min(par[P_TAU_POL], max(st[S_TIME] - st[S_P_T0], hp)))
-    else:
-        st[S_P_T0] = -1.0
-        k = min(1.0, hp / par[P_TAU_POL])
+    if st[S_P_INIT] == 0.0:
+        st[S_P_T0] = st[S_TIME] - hp
+    k = min(1.0, hp / min(par[P_TAU_POL], max(st[S_TIME] - st[S_P_T0], hp)))
     st[S_P_INIT] = 1.0
-    dd = k * err
-    st[S_DELTA] = de + dd
-    # step's output R_up(δ) ⊗ t ⊗ (latency) turned by the change of δ
-    h0, h1, h2, h3 = _rotvec_q(dd * ux, dd * uy, dd * uz)
-    o0, o1, o2, o3 = _qmul(h0, h1, h2, h3, st[S_Q], st[S_Q + 1], st[S_Q + 2], st[S_Q + 3])
-    _store_q(st, S_Q, o0, o1, o2, o3)
+    st[S_P_USED_T] = st[S_TIME]
+    _turn_heading(st, par, k * err)
     st[S_POL_USED] = 1.0
     return POL_USED
+
+
+@numba.njit(**_NJ)
+def _turn_heading(st, par, dd):
+    """δ changed by ``dd`` rad after :func:`step`: its output R_up(δ) ⊗ t (⊗ the latency's prediction) turned by
+    R_up(dd) with it."""
+    st[S_DELTA] += dd
+    h0, h1, h2, h3 = _rotvec_q(dd * par[P_UP], dd * par[P_UP + 1], dd * par[P_UP + 2])
+    o0, o1, o2, o3 = _qmul(h0, h1, h2, h3, st[S_Q], st[S_Q + 1], st[S_Q + 2], st[S_Q + 3])
+    _store_q(st, S_Q, o0, o1, o2, o3)
+
+
+@numba.njit(**_NJ)
+def _pol_gate(st, par, mx, my, mz, d0):
+    """Undo the magnetometer's heading correction of the sample :func:`step` just took (δ back to ``d0``, the
+    sample not used) when its field's azimuth lies beyond mag_pol_th of ``d0`` while polarization holds the
+    heading (a sample of it used within the last tau_pol s): a disturbance within the norm and dip gates (a field
+    turned 40° with both kept) would otherwise pull the heading by tau_pol/(tau_pol + tau_mag) of it."""
+    th = par[P_MAG_POL_TH]
+    if st[S_MAG_USED] == 0.0 or th <= 0.0 or st[S_P_INIT] == 0.0 or st[S_TIME] - st[S_P_USED_T] > par[P_TAU_POL]:
+        return
+    if st[S_MAG_CORR] != 0.0:  # used less the body-fixed offset fitted while disturbed
+        mx, my, mz = mx - st[S_HI_B], my - st[S_HI_B + 1], mz - st[S_HI_B + 2]
+    t0, t1, t2, t3 = _qmul(
+        st[S_QC], st[S_QC + 1], st[S_QC + 2], st[S_QC + 3], st[S_QG], st[S_QG + 1], st[S_QG + 2], st[S_QG + 3]
+    )
+    nm = math.sqrt(mx * mx + my * my + mz * mz)
+    _, phi = _dip_azimuth(par, t0, t1, t2, t3, mx, my, mz, nm)
+    e = -phi - d0
+    if abs(math.atan2(math.sin(e), math.cos(e))) <= th:
+        return
+    _turn_heading(st, par, d0 - st[S_DELTA])
+    st[S_MAG_USED] = 0.0
+    st[S_MAG_CORR] = 0.0
 
 
 @numba.njit(**_NJ)
@@ -946,7 +974,10 @@ def run_pol(st, par, gyr, acc, mag, dt, use, sn, cbm, aop, min_d2, out, flags, b
             m = mag[i]
             if i == restart:
                 mag_restart(st)
+            d0 = st[S_DELTA]
             ok = step(st, par, g[0], g[1], g[2], a[0], a[1], a[2], m[0], m[1], m[2], h)
+            if ok:
+                _pol_gate(st, par, m[0], m[1], m[2], d0)
         else:
             ok = step(st, par, g[0], g[1], g[2], a[0], a[1], a[2], nan, nan, nan, h)
         pol[i] = POL_NONE

@@ -140,6 +140,7 @@ def _params(frame: str, opts: dict) -> np.ndarray:
     p[_k.P_HI_TAU] = opts["hard_iron_tau"]
     p[_k.P_REST_TAU_ACC] = opts["rest_tau_acc"]
     p[_k.P_TAU_POL] = opts["tau_pol"]
+    p[_k.P_MAG_POL_TH] = opts["mag_pol_th"]
     return p
 
 

@@ -41,6 +41,7 @@ IFRAME_DEFAULTS: dict[str, float] = {
     "mag_current_tau": 0.05,  # s, low-pass of the field's norm and dip seen by the new-field candidate; 0 = none
     "latency": 0.0,  # s, how late the IMU's samples are: the output is predicted that far ahead
     "tau_pol": 2.0,  # s, heading correction time constant of skylight polarization (pol=)
+    "mag_pol_th": 10.0 * _D2R,  # rad, a field's azimuth this far from the heading polarization holds: unused; 0 = off
 }
 
 #: the estimators of :func:`optinav.attitude.estimate`
