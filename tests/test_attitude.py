@@ -745,9 +745,9 @@ def test_with_polarization_a_disturbed_magnetometer_leaves_the_heading_alone():
 
 
 def test_iframe_with_polarization_streamed_equals_the_estimate():
-    """AttitudeFilter.update_batch(pol=) (refused before) in chunks gives estimate()'s attitude to 1e-12, with a
-    magnetometer and without, a polarization sample missing every 7th row; its per-sample ``pol_used`` adds up to
-    the estimate's count, and its skipped counts to the estimate's."""
+    """AttitudeFilter.update_batch(pol=) (refused before) in chunks, and update(..., pol_sample=) one sample at a
+    time, give estimate()'s attitude to 1e-12, with a magnetometer and without, a polarization sample missing every
+    7th row; the per-sample ``pol_used`` adds up to the estimate's count, and the skipped counts to the estimate's."""
     from optinav.attitude import AttitudeFilter
 
     n = 3000
@@ -766,7 +766,13 @@ def test_iframe_with_polarization_streamed_equals_the_estimate():
         assert np.max(np.abs(np.vstack([p.q_b_n for p in parts]) - r.q_b_n)) < 1e-12
         assert sum(int(p.pol_used.sum()) for p in parts) == r.pol_used > 0.7 * n
         assert {k: sum(p.pol_skipped[k] for p in parts) for k in r.pol_skipped} == r.pol_skipped
-        assert f.pol_used == parts[-1].pol_used[-1]
+        assert f.pol_used == parts[-1].pol_used[-1] and f.pol_skipped == r.pol_skipped
+        g = AttitudeFilter(rate_hz=1.0 / d["dt"])  # one sample at a time, AoP and sun as the other filters take them
+        qs = np.empty((n, 4))
+        for i in range(n):
+            g.update(d["gyr"][i], d["acc"][i], None if mag is None else mag[i], pol_sample=(aop[i], d["sun"]))
+            qs[i] = g.q_b_n
+        assert np.max(np.abs(qs - r.q_b_n)) < 1e-12 and g.pol_skipped == r.pol_skipped
 
 
 def test_the_command_line_takes_a_magnetometer_with_polarization(tmp_path, capsys):

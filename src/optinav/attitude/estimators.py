@@ -433,6 +433,18 @@ def initial_attitude(
     return q / np.linalg.norm(q)
 
 
+def one_pol_sample(pol_sample, C_b_m, frame: str, thresholds: dict) -> PolarizationMeasurement:
+    """The :class:`PolarizationMeasurement` of one streamed ``pol_sample`` (aop, sun_n) or (aop, sun_n, dop) [rad,
+    -, -] with the filter's mounting ``C_b_m`` and skip ``thresholds`` (min_sun_elevation, min_dop,
+    min_sun_separation)."""
+    if len(pol_sample) not in (2, 3):
+        raise OptinavError("pol_sample must be (aop, sun_n) or (aop, sun_n, dop)", "pass a tuple")
+    dop = None if len(pol_sample) == 2 or pol_sample[2] is None else [pol_sample[2]]
+    return PolarizationMeasurement(
+        np.array([pol_sample[0]], dtype=float), pol_sample[1], dop, C_b_m, frame, **thresholds
+    )
+
+
 def _pol_arrays(pol, n: int, frame: str):
     use, sn, cbm, aop, min_d2, skipped = pol_inputs(pol, n, frame, "the IMU")
     return use, sn, cbm, np.cos(2 * aop), np.sin(2 * aop), min_d2, skipped
@@ -1097,14 +1109,7 @@ class _Filter(StreamGaps):
         if self._gap_check and np.ndim(h) == 0 and h > self._gap_s:
             self._judge_gap(float(h))
         dts = _as_dt(h, 1)
-        pol = None
-        if pol_sample is not None:
-            if len(pol_sample) not in (2, 3):
-                raise OptinavError("pol_sample must be (aop, sun_n) or (aop, sun_n, dop)", "pass a tuple")
-            dop = None if len(pol_sample) == 2 or pol_sample[2] is None else [pol_sample[2]]
-            pol = PolarizationMeasurement(
-                np.array([pol_sample[0]], dtype=float), pol_sample[1], dop, self.C_b_m, self.frame, **self._pol_kw
-            )
+        pol = None if pol_sample is None else one_pol_sample(pol_sample, self.C_b_m, self.frame, self._pol_kw)
         g, a, _ = self._front_step(np.ascontiguousarray(g), np.ascontiguousarray(a), dts)
         use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, 1, self.frame)
         self._add_skipped(skipped, pol)

@@ -662,11 +662,20 @@ class AttitudeFilter(StreamGaps):
         q0=None,
         mag_hard_iron=None,
         mag_measured_before_fit: bool = False,
+        C_b_m=None,
+        min_sun_elevation: float = 0.0,
+        min_dop: float = 0.05,
+        min_sun_separation: float = math.radians(10.0),
         **options,
     ):
         from optinav.attitude.estimators import _as_q0, _hard_iron, _options, default_step
+        from optinav.attitude.measurement import as_c_b_m
 
         self.frame = frame_name(frame)
+        # the polarization sensor of update(..., pol_sample=), as the other methods' filters take it
+        self.C_b_m = as_c_b_m(C_b_m, self.frame)
+        self._pol_kw = dict(min_sun_elevation=min_sun_elevation, min_dop=min_dop, min_sun_separation=min_sun_separation)
+        self._pol_skipped: dict[str, int] | None = None
         self.options = _options("iframe", options)
         self.dt = default_step(rate_hz, dt)
         self._par = _params(self.frame, self.options)
@@ -698,9 +707,10 @@ class AttitudeFilter(StreamGaps):
         self._state[:] = _new_state(self.options, None if q0 is None else _as_q0(q0))
         self._gaps_init()
 
-    def update(self, gyr, acc, mag=None, dt=None) -> None:
+    def update(self, gyr, acc, mag=None, dt=None, pol_sample=None) -> None:
         """One sample; then read :attr:`q_b_n`, :attr:`rest`, … Only the lengths are checked in Python (speed); a
-        non-finite gyr, acc or dt raises :class:`~optinav.errors.OptinavError` and leaves the state unchanged.
+        non-finite gyr, acc or dt raises :class:`~optinav.errors.OptinavError` and leaves the state unchanged. With
+        ``pol_sample`` the sample goes through :meth:`update_batch` (the same arithmetic, checked as a chunk).
 
         Parameters
         ----------
@@ -713,9 +723,19 @@ class AttitudeFilter(StreamGaps):
             other methods' filters from :func:`~optinav.attitude.make_filter`).
         dt : float or None
             Step [s]; None: the filter's.
+        pol_sample : tuple or None
+            Skylight polarization: (aop [rad], sun_n (3,) [-]) or (aop, sun_n, dop [-]), the sensor of the filter's
+            ``C_b_m`` and thresholds.
         """
         if mag is not None and not hasattr(mag, "__len__"):
             mag, dt = None, mag
+        if pol_sample is not None:
+            from optinav.attitude.estimators import one_pol_sample
+
+            pol = one_pol_sample(pol_sample, self.C_b_m, self.frame, self._pol_kw)
+            one = lambda v: None if v is None else np.asarray(v, dtype=float).reshape(1, -1)
+            self.update_batch(one(gyr), one(acc), one(mag), dt=dt, pol=pol)
+            return
         h = self.dt if dt is None else dt
         if h is None or not h > 0:
             raise OptinavError("no positive time step for this update", "pass dt= or build with rate_hz")
@@ -800,6 +820,10 @@ class AttitudeFilter(StreamGaps):
             r = _run(self._state, self._par, g, a, rows, d, restart)
         else:
             r = _run_pol(self._state, self._par, g, a, rows, d, pol, self.frame, restart)
+        if pol is not None:
+            self._pol_skipped = self._pol_skipped or {}
+            for k, v in r.pol_skipped.items():
+                self._pol_skipped[k] = self._pol_skipped.get(k, 0) + v
         r.state = self._state.copy()  # the chunk's end state, not the filter's live one
         r.mag_used = None if m is None else r.mag_used  # no magnetometer given: None, as estimate() reports it
         return r
@@ -842,6 +866,12 @@ class AttitudeFilter(StreamGaps):
     def mag_used(self) -> bool | None:
         """Whether the last sample's magnetometer corrected the heading (None until a magnetometer sample came)."""
         return bool(self._state[_k.S_MAG_USED]) if self._state[_k.S_M_SEEN] else None
+
+    @property
+    def pol_skipped(self) -> dict[str, int] | None:
+        """Polarization samples left out so far, by reason, as :func:`~optinav.attitude.estimate` counts them (None
+        until a polarization sample was given)."""
+        return None if self._pol_skipped is None else dict(self._pol_skipped)
 
     @property
     def pol_used(self) -> bool | None:
