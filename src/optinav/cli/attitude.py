@@ -246,8 +246,12 @@ def _checked(args):
     from optinav.core.rotations import frame_name, quat_from_euler
 
     options = parse_key_values(args.option)
-    mag = bool(args.mag or args.mag_columns or getattr(args, "mag_path", None))
-    method = _method(args.method, True if args.pol_columns else None, mag)
+    # the magnetometer as AttitudeOptions.uses_mag takes it: with polarization it makes iframe the default
+    method = _method(
+        args.method,
+        True if args.pol_columns else None,
+        bool(args.mag or args.mag_columns or getattr(args, "mag_path", None)),
+    )
     check_options(method, options)
     from optinav.attitude.recording import CSV_HEADER
 
