@@ -701,7 +701,7 @@ def alternation_sums(x, mean, m2):
     k = (x.shape[0] - 1) // 2
     nc = x.shape[1]
     if nc == 3:  # a triad: the same sums in scalars (kept in registers: half the time)
-        return _alternation_sums3(x, mean, m2)
+        return _alternation_sums3(x, mean, m2, np.empty(2))
     h = np.empty(8)
     h0 = np.empty(8)
     s1 = np.zeros(8)
@@ -732,18 +732,33 @@ def alternation_sums(x, mean, m2):
 
 
 @numba.njit(**_NJ)
-def _alternation_sums3(x, mean, m2):
-    """:func:`alternation_sums` of an (N, 3) array, operation for operation (the same results to the bit)."""
+def alternation_range(x, mean, m2, bounds):
+    """:func:`alternation_sums` of an (N, 3) array, and (min, max) of all its values in ``bounds`` ((2,); NaN when
+    one is NaN) in the same pass: the range the value check of a bag topic's triad takes (a pass of its own cost
+    as much again)."""
+    return _alternation_sums3(x, mean, m2, bounds)
+
+
+@numba.njit(**_NJ)
+def _alternation_sums3(x, mean, m2, bounds):
+    """:func:`alternation_range`: the sums operation for operation as :func:`alternation_sums` (the same results
+    to the bit)."""
     k = (x.shape[0] - 1) // 2
     s1a = s1b = s1c = s2a = s2b = s2c = 0.0
     r0 = r1 = r2 = 0.0
+    lo, hi, nan = np.inf, -np.inf, False
     count = 0
     for i in range(k):
-        ha = x[2 * i + 1, 0] - 0.5 * (x[2 * i, 0] + x[2 * i + 2, 0])
-        hb = x[2 * i + 1, 1] - 0.5 * (x[2 * i, 1] + x[2 * i + 2, 1])
-        hc = x[2 * i + 1, 2] - 0.5 * (x[2 * i, 2] + x[2 * i + 2, 2])
+        a0, a1, a2 = x[2 * i, 0], x[2 * i, 1], x[2 * i, 2]
+        b0, b1, b2 = x[2 * i + 1, 0], x[2 * i + 1, 1], x[2 * i + 1, 2]
+        lo = min(lo, a0, a1, a2, b0, b1, b2)
+        hi = max(hi, a0, a1, a2, b0, b1, b2)
+        ha = b0 - 0.5 * (a0 + x[2 * i + 2, 0])
+        hb = b1 - 0.5 * (a1 + x[2 * i + 2, 1])
+        hc = b2 - 0.5 * (a2 + x[2 * i + 2, 2])
         s = 0.0 + ha + hb + hc
-        if s - s != 0.0:  # a NaN or inf among them
+        if s - s != 0.0:  # a NaN or inf among them (a NaN of row 2i + 2 is the next pair's or the tail's)
+            nan = nan or a0 != a0 or a1 != a1 or a2 != a2 or b0 != b0 or b1 != b1 or b2 != b2
             continue
         if count == 0:
             r0, r1, r2 = ha, hb, hc
@@ -757,6 +772,11 @@ def _alternation_sums3(x, mean, m2):
         d = hc - r2
         s1c += d
         s2c += d * d
+    for j in range(max(2 * k, 0), x.shape[0]):  # the rows from the last pair's end on
+        for c in range(3):
+            v = x[j, c]
+            lo, hi, nan = min(lo, v), max(hi, v), nan or v != v
+    bounds[0], bounds[1] = (np.nan, np.nan) if nan else (lo, hi)
     mean[0] = mean[1] = mean[2] = 0.0
     m2[0] = m2[1] = m2[2] = 0.0
     if count:

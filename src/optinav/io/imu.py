@@ -603,18 +603,24 @@ def _read_part(
 _COMPILED_ROWS = 1 << 18
 
 
+def _long(tri: np.ndarray) -> bool:
+    """A long contiguous float64 triad: what the compiled passes over a triad take."""
+    return tri.shape[0] >= _COMPILED_ROWS and tri.dtype == np.float64 and tri.flags.c_contiguous
+
+
 def _range(tri: np.ndarray) -> tuple[float, float] | None:
     """(min, max) of a long contiguous float64 triad (NaN when any value is NaN), else None (the value check then
     takes them on its own)."""
-    if tri.shape[0] < _COMPILED_ROWS or tri.dtype != np.float64 or not tri.flags.c_contiguous:
+    if not _long(tri):
         return None
     flat = tri.reshape(-1)
     return float(flat.min()), float(flat.max())  # vectorized, NaN when any value is NaN: faster than one scalar pass
 
 
-def _gyro_triad_ahead(found: dict):
-    """The gyro's :func:`_triad` started in a helper thread (:mod:`optinav.io._pool`) when both triads are long
-    columns (the compiled interleave or range pass releases the GIL, so the acc's runs at once), else None."""
+def _gyro_triad_ahead(found: dict, alternate: bool = False):
+    """The gyro's :func:`_triad` (``alternate`` passed on) started in a helper thread (:mod:`optinav.io._pool`)
+    when both triads are long columns (the compiled interleave or range pass releases the GIL, so the acc's runs
+    at once), else None."""
     cols = [found[c][1] for c in _COMPONENTS["gyro"] if c in found]
     acc = [c for c in _COMPONENTS["acc"] if c in found]
     if len(cols) != 3 or len(acc) != 3 or "gyro" in found or "acc" in found or cols[0].ndim != 1:
@@ -624,14 +630,16 @@ def _gyro_triad_ahead(found: dict):
     from optinav.io._pool import helper
 
     pool = helper()
-    return None if pool is None else pool.submit(_triad, cols)
+    return None if pool is None else pool.submit(_triad, cols, alternate)
 
 
-def _triad(cols: list[np.ndarray]) -> tuple[np.ndarray, tuple[float, float] | None]:
-    """The (n, 3) array of three columns, and (min, max) of its values when it was computed on the way (NaN
-    when any value is NaN; None: not computed): a view of the memory they share when they are the columns 0, 1,
+def _triad(cols: list[np.ndarray], alternate: bool = False) -> tuple:
+    """The (n, 3) array of three columns, (min, max) of its values when it was computed on the way (NaN
+    when any value is NaN; None: not computed), and its :func:`alternation` when ``alternate`` and it was computed
+    in the same pass (else None): a view of the memory they share when they are the columns 0, 1,
     2 of one row-major (n, 3) array (a reader's array handed out as column views, e.g. a ROS bag's; its range by
-    :func:`_range`), else a copy (the strided copy costs about as much as decoding the bag; a long float64 one is compiled, with the
+    :func:`_range`, or with ``alternate`` by the two-sensor check's pass), else a copy (the strided copy costs
+    about as much as decoding the bag; a long float64 one is compiled, with the
     range, :func:`optinav.io._colkernels.interleave3`)."""
     a = cols[0]
     base, item = a.base, a.itemsize
@@ -643,13 +651,17 @@ def _triad(cols: list[np.ndarray]) -> tuple[np.ndarray, tuple[float, float] | No
         and ptr == [ptr[0], ptr[0] + item, ptr[0] + 2 * item]
     ):
         tri = np.lib.stride_tricks.as_strided(a, shape=(a.shape[0], 3), strides=(3 * item, item))
-        return tri, _range(tri)
+        if alternate and _long(tri):
+            bounds = np.empty(2)
+            alt = alternation(tri, bounds)
+            return tri, (float(bounds[0]), float(bounds[1])), alt
+        return tri, _range(tri), None
     if a.ndim == 1 and a.size >= _COMPILED_ROWS and all(c.dtype == np.float64 and c.shape == a.shape for c in cols):
         from optinav.io._colkernels import interleave3
 
         out = np.empty((a.size, 3))
-        return out, interleave3(*cols, out)
-    return np.column_stack(cols), None
+        return out, interleave3(*cols, out), None
+    return np.column_stack(cols), None, None
 
 
 def _kalibr_csv(table: Table, found: dict, candidates: dict, implied: dict) -> None:
@@ -1557,7 +1569,10 @@ def _part_of(
             f"{part.path.name}: the columns have different lengths ({shown})",
             "pass columns/arrays with one value per sample",
         )
-    ahead = _gyro_triad_ahead(found)
+    # a bag topic's two-sensor check (_one_source) takes each long triad in the value range's pass
+    two = table.kind == "rosbag" and table.row0 == 0
+    ahead = _gyro_triad_ahead(found, two)
+    alternations = {}
     for kind in ("acc", "gyro"):
         comps = [c for c in _COMPONENTS[kind] if c in found]
         if comps and kind in found:
@@ -1584,9 +1599,11 @@ def _part_of(
             tri, bounds = arr, _range(arr)
             srcs = [name]
         elif comps:
-            tri, bounds = (
-                ahead.result() if kind == "gyro" and ahead else _triad([found[c][1] for c in _COMPONENTS[kind]])
+            tri, bounds, alt = (
+                ahead.result() if kind == "gyro" and ahead else _triad([found[c][1] for c in _COMPONENTS[kind]], two)
             )
+            if alt is not None:
+                alternations[kind] = alt
             srcs = [found[c][0] for c in _COMPONENTS[kind]]
         else:
             continue
@@ -1620,8 +1637,8 @@ def _part_of(
         s = found["sample"][1]
         part.sample = s.astype(np.int64) if np.all(np.isfinite(s)) and np.all(s == np.round(s)) else s
     part.n = next(iter(lengths.values())) if lengths else 0
-    if table.kind == "rosbag" and table.row0 == 0:
-        _one_source(part, table)
+    if two:
+        _one_source(part, table, alternations)
     if "select" in table.meta and part.t is None and lengths:
         raise OptinavError(
             f"--topic {table.meta['select']}: {part.path.name} has no time column, so the rows kept could not be timed",
@@ -1684,38 +1701,50 @@ _ALTERNATE_Z = 20.0
 _ALTERNATE_MIN = 100
 
 
-def alternation(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def alternation(x: np.ndarray, bounds: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """How far every other sample departs from the mean of its two neighbours, per axis: (that mean over its
     standard error, the mean itself [unit of ``x``]) of an (N, K) array; zeros when fewer than
     :data:`_ALTERNATE_MIN` pairs are finite. Two sensors in alternate rows give their bias difference there, one
-    sensor (a straight trend cancels) nothing but noise."""
+    sensor (a straight trend cancels) nothing but noise. ``bounds``: a (2,) array that takes (min, max) of a
+    non-empty (N, 3) ``x`` (NaN when a value is NaN), from the same pass."""
     zero = np.zeros(x.shape[1])
     if (x.shape[0] - 1) // 2 < _ALTERNATE_MIN:
+        if bounds is not None:
+            bounds[:] = x.min(), x.max()
         return zero, zero
-    from optinav.io._bagkernels import alternation_sums
+    from optinav.io._bagkernels import alternation_range, alternation_sums
 
     mean, m2 = np.zeros(x.shape[1]), np.zeros(x.shape[1])
-    n = alternation_sums(np.ascontiguousarray(x, dtype=float), mean, m2)
+    x = np.ascontiguousarray(x, dtype=float)
+    n = alternation_sums(x, mean, m2) if bounds is None else alternation_range(x, mean, m2, bounds)
     if n < _ALTERNATE_MIN:
         return zero, zero
     se = np.sqrt(m2 / n) / np.sqrt(n)
     return np.abs(mean) / np.where(se > 0, se, np.inf), mean
 
 
-def _one_source(part: _Part, table: Table) -> None:
+def _one_source(part: _Part, table: Table, known: dict | None = None) -> None:
     """Refuse a bag topic whose messages alternate between two sensors under one frame_id (two IMU drivers
     publishing one topic: rosbag2 keeps no publisher per message, so neither a connection nor a frame_id tells
     them apart, and read as one they were one IMU at twice the rate with exit 0). The sign: every other sample
     minus the mean of its two neighbours (a straight trend cancels) has a mean far beyond its standard error on
-    some axis (:data:`_ALTERNATE_Z`), i.e. the two sensors' bias difference; one sensor's has none."""
+    some axis (:data:`_ALTERNATE_Z`), i.e. the two sensors' bias difference; one sensor's has none. ``known``:
+    kind → its :func:`alternation` where already taken (:func:`_triad`)."""
     from optinav.io._pool import helper
 
+    known = known or {}
     kinds = [(k, u, getattr(part, k)) for k, u in (("acc", "m/s^2"), ("gyro", "rad/s"))]
     kinds = [(k, u, x) for k, u, x in kinds if x is not None and x.ndim == 2]
     pool = helper() if len(kinds) == 2 and kinds[1][2].shape[0] >= _COMPILED_ROWS else None
-    ahead = None if pool is None else pool.submit(alternation, kinds[1][2])  # compiled, GIL released: both at once
+    if pool is None or kinds[1][0] in known:
+        ahead = None
+    else:
+        ahead = pool.submit(alternation, kinds[1][2])  # compiled, GIL released: both at once
     for i, (kind, unit, x) in enumerate(kinds):
-        z, mean = ahead.result() if i == 1 and ahead is not None else alternation(x)
+        if kind in known:
+            z, mean = known[kind]
+        else:
+            z, mean = ahead.result() if i == 1 and ahead is not None else alternation(x)
         j = int(np.argmax(z))
         if z[j] > _ALTERNATE_Z:
             raise OptinavError(
