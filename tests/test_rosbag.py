@@ -368,6 +368,35 @@ def test_fine_stamps_are_judged_once_per_read(tmp_path, monkeypatch, kind):
     assert np.array_equal(log.t, t) and np.array_equal(log.acc, acc)
 
 
+def test_a_bag_s_own_definitions_like_the_store_s_are_deserialized_by_the_store(tmp_path, monkeypatch):
+    """rosbags' reader builds a type store from a ROS 2 bag's definitions at each opening, whose code for
+    sensor_msgs/Imu was generated again at each read (10-16 ms): where the bag defines the type and every type in
+    it field for field as the process's store does, that store deserializes; a definition of its own (another
+    field type in one nested type), or a ROS 1 bag, keeps the reader's."""
+    from types import SimpleNamespace
+
+    from optinav.io import rosbag
+
+    calls = []
+    own = AnyReader.deserialize
+    monkeypatch.setattr(AnyReader, "deserialize", lambda self, *a: calls.append(a[1]) or own(self, *a))
+    rng = np.random.default_rng(71)
+    msgs, t, gyr, acc = imu_topic(rng, n=300)
+    log = read_imu(write_bag(tmp_path / "b", "mcap", {"/imu": (IMU, msgs)}))
+    assert not calls and np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+    store = rosbag._store("LATEST")
+    defs = dict(store.fielddefs)
+    consts, fields = defs["geometry_msgs/msg/Vector3"]
+    defs["geometry_msgs/msg/Vector3"] = (consts, [(n, (d[0], ("float32", 0))) for n, d in fields])
+    for reader in (
+        SimpleNamespace(is2=True, typestore=SimpleNamespace(fielddefs=defs)),
+        SimpleNamespace(is2=False, typestore=SimpleNamespace(fielddefs=dict(store.fielddefs))),
+    ):
+        assert rosbag._deserializer(reader, IMU) is reader
+    same = SimpleNamespace(is2=True, typestore=SimpleNamespace(fielddefs=dict(store.fielddefs)))
+    assert rosbag._deserializer(same, IMU).store is store
+
+
 @given(st.lists(st.sampled_from([0.0, -1.0, 0.5, 1.0, 1.0, 2.0, 3.5, np.nan, np.inf, -np.inf]), max_size=8))
 def test_stamps_ok_means_set_and_strictly_increasing(values):
     """The quick test of header stamps (s) agrees with its definition: every stamp positive, every step

@@ -286,6 +286,38 @@ class _Ros2Types(_Ros1Types):
         return self.store.deserialize_cdr(raw, msgtype)
 
 
+def _deserializer(reader, msgtype: str):
+    """The deserializer of ``msgtype`` for ``reader``: the process's ROS 2 type store (:func:`_store`, its code
+    for the type generated once) when ``reader`` is a rosbags reader of a ROS 2 bag whose own type store (built from
+    the bag's definitions at each opening: generating the code for sensor_msgs/Imu again cost 10-16 ms a read)
+    defines the type and every type in it field for field as that store does; else ``reader``."""
+    own = getattr(reader, "typestore", None)
+    if own is None or not getattr(reader, "is2", False):
+        return reader
+    try:
+        from rosbags.interfaces import Nodetype
+
+        ref = _store("LATEST")
+        if own is ref:
+            return reader
+        todo, seen = [msgtype], set()
+        while todo:
+            name = todo.pop()
+            if name in seen:
+                continue
+            seen.add(name)
+            if name not in ref.fielddefs or own.fielddefs.get(name) != ref.fielddefs[name]:
+                return reader
+            for _, desc in ref.fielddefs[name][1]:
+                while desc[0] in (Nodetype.ARRAY, Nodetype.SEQUENCE):  # an array's element type
+                    desc = desc[1][0]
+                if desc[0] == Nodetype.NAME:
+                    todo.append(desc[1])
+    except Exception:  # noqa: BLE001 - a rosbags without these names: its reader deserializes
+        return reader
+    return _Ros2Types()
+
+
 def _sqlite_files(path: Path) -> list[Path] | None:
     """The .db3 files of an uncompressed rosbag2 sqlite3 bag (a bare .db3 file, or a folder whose
     metadata.yaml names them); None for anything else."""
@@ -750,7 +782,9 @@ class _Decoder:
     deserializer. ``grow``: ``count`` is an estimate and the arrays grow past it."""
 
     def __init__(self, reader, ros1: bool, msgtype: str, count: int, *, grow: bool = False):
-        self.reader, self.ros1, self.msgtype, self.count, self.grow = reader, ros1, msgtype, count, grow
+        self.ros1, self.msgtype, self.count, self.grow = ros1, msgtype, count, grow
+        #: what deserializes a message (the first's layout check, the messages of another layout)
+        self.types = _deserializer(reader, msgtype)
         self.done = 0
         #: the value groups (0 angular velocity, 1 linear acceleration) the first message marks as not measured
         self.unmeasured: tuple = ()
@@ -764,7 +798,7 @@ class _Decoder:
         if self.msgtype != IMU_TYPE:
             return
         try:
-            msg = self.reader.deserialize(first, IMU_TYPE)
+            msg = self.types.deserialize(first, IMU_TYPE)
             covs = (msg.angular_velocity_covariance, msg.linear_acceleration_covariance)
             self.unmeasured = tuple(k for k, c in enumerate(covs) if c[0] == -1)
         except Exception:  # noqa: BLE001 - the deserializer fails: the main loop reports it
@@ -810,7 +844,7 @@ class _Decoder:
                 first = bytes(u8[off[0] : off[0] + size[0]])
                 self._mark(first)
                 layout = _layout(first, self.ros1, self.msgtype)
-                if layout is not None and not _layout_agrees(self.reader, first, layout, self.msgtype):
+                if layout is not None and not _layout_agrees(self.types, first, layout, self.msgtype):
                     layout = None
                 layout = layout or False  # False: every message through rosbags' deserializer
             rows = slice(self.done, self.done + n)
@@ -823,7 +857,7 @@ class _Decoder:
                 other = np.ones(n, dtype=bool)
             for j in np.flatnonzero(other):
                 raw = bytes(u8[off[j] : off[j] + size[j]])
-                t, v, frame = _slow(self.reader, raw, self.msgtype)
+                t, v, frame = _slow(self.types, raw, self.msgtype)
                 self.fid[self.done + j] = self._code(frame)
                 self.stamp[self.done + j] = t
                 for k, arr in enumerate(self.vals):
@@ -837,7 +871,7 @@ class _Decoder:
         layout and rosbags' deserializer reads the same values from it; else None."""
         self._mark(first)
         layout = _layout(first, self.ros1, self.msgtype)
-        if layout is None or not _layout_agrees(self.reader, first, layout, self.msgtype):
+        if layout is None or not _layout_agrees(self.types, first, layout, self.msgtype):
             return None
         if self._code(_frame_name(layout[3], self.ros1)) != 0:
             return None  # every row the kernel fills is of frame 0
