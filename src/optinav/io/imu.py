@@ -618,7 +618,7 @@ def _range(tri: np.ndarray) -> tuple[float, float] | None:
 
 
 def _gyro_triad_ahead(found: dict, alternate: bool = False):
-    """The gyro's :func:`_triad` (``alternate`` passed on) started in a helper thread (:mod:`optinav.io._pool`)
+    """The gyro's :func:`_triad` (``alternate`` passed on) started in a thread of :mod:`optinav.io._pool`
     when both triads are long columns (the compiled interleave or range pass releases the GIL, so the acc's runs
     at once), else None."""
     cols = [found[c][1] for c in _COMPONENTS["gyro"] if c in found]
