@@ -798,8 +798,21 @@ def estimate(
         fitted = True
         # before the fit passed, the field as measured: the estimate of those rows alone (its magnetic part then
         # restarts, as the streamed filter's does: _iframe.mag_restart; the tilt and the bias never see the field)
-        early = None if not measured else estimate(gyr[:hi_from], acc[:hi_from], dts[:hi_from] if dts.shape[0] > 1 else dts[0], method=method,
-                         frame=frame, q0=q0, mag=raw[:hi_from], pol=None if pol is None else pol.select(slice(0, hi_from)), allow_gaps=allow_gaps, checks=False, **options)  # fmt: skip
+        if measured:
+            pre = slice(0, hi_from)
+            early = estimate(
+                gyr[pre],
+                acc[pre],
+                dts[pre] if dts.shape[0] > 1 else dts[0],
+                method=method,
+                frame=frame,
+                q0=q0,
+                mag=raw[pre],
+                pol=None if pol is None else pol.select(pre),
+                allow_gaps=allow_gaps,
+                checks=False,
+                **options,
+            )
         mag = mag.copy()
         mag[:hi_from] = np.nan
     mag_rows = None if mag is None else int(np.count_nonzero(np.isfinite(raw if online_fit else mag).all(axis=1)))
