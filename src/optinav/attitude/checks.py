@@ -3135,10 +3135,11 @@ def offset_tolerated(b: np.ndarray, mag: np.ndarray, turns, tilt) -> bool:
     offset no fit sees is tolerated; and so does the sphere fitted along all three axes to the rows ``mag`` (n, 3)
     and the offset the turning steps show (:func:`moving_offset` of ``turns``, :func:`field_rate_sums` and the bin's
     s): ``b`` has no part along an axis the body turned little about, and a residual of 4.5 µT beside 30 µT fitted
-    so (2.1° of heading) turned the heading by 7.7° (8.1° RMSE with exit 0). The fit from past samples leaves the
-    field unused until it passes its gates, and never passes them where the motion spreads the norm too little:
-    simulated residuals of 2-8 µT beside 28-57 µT that the raw field ran at 0.9-2.6° were refused, or, the fit
-    passing late, ran at 54-126° with exit 0 (the heading the gyro's from the start until then)."""
+    so (2.1° of heading) turned the heading by 7.7° (8.1° RMSE with exit 0). The fit from past samples never passes
+    its gates where the motion spreads the norm too little: simulated residuals of 2-8 µT beside 28-57 µT that the
+    raw field ran at 0.9-2.6° were refused, or, the fit passing late, ran at 54-126° with exit 0 (the field then
+    unused until it passed, the heading the gyro's from the start; since, used as measured there where
+    :func:`measured_before_fit` says so)."""
     m = mag[np.all(np.isfinite(mag), axis=1)]
     seen = [np.asarray(b, float)]
     if m.shape[0] >= 100:
@@ -3605,7 +3606,6 @@ def check_bias_range(
     if worst <= clip or told:
         return
     wanted = float(np.ceil(2.0 * worst * 100.0) / 100.0)
-    option = f"--option bias_clip={wanted:g} (bias_clip={wanted:g} in Python)"
     why = (
         "not a steady turn: taken off, gravity drifts far less in the gyro's frame over the motion"
         if turn
@@ -3614,9 +3614,15 @@ def check_bias_range(
     raise OptinavError(
         f"{_reads_at_rest(bias, seconds)}: a bias beyond the ±{clip:.4g} rad/s the estimator tracks (bias_clip), "
         f"so the attitude would drift ({why})",
-        "subtract the bias from the gyro (calibrate it, optinav apply), or pass "
-        + (option if method == "iframe" else f"--method iframe {option}"),
+        "subtract the bias from the gyro (calibrate it, optinav apply), or pass " + _clip_option(wanted, method),
     )
+
+
+def _clip_option(clip: float, method: str) -> str:
+    """The options that run ``method``'s estimate with iframe's ``bias_clip`` at ``clip`` rad/s (gd/cg/qn/mekf
+    have the bias from iframe's front end at its default clip: ``--method iframe``)."""
+    option = f"--option bias_clip={clip:g} (bias_clip={clip:g} in Python)"
+    return option if method == "iframe" else f"--method iframe {option}"
 
 
 #: rad/s, the slowest steady turn read at rest that the field is asked about within the clip (:func:`_slow_turn_error`):
@@ -3632,12 +3638,11 @@ def _slow_turn_error(reading: np.ndarray, seconds: float, clip: float, method: s
     RMSE (the field pulling the heading back over tau_mag), 6D 25-76° off in 55 s, with exit 0. The remedy: a clip
     between the bias and the turn, half the reading (the field tells at most about a third of it bias)."""
     wanted = float(f"{0.5 * float(np.max(np.abs(reading))):.2g}")
-    option = f"--option bias_clip={wanted:g} (bias_clip={wanted:g} in Python)"
     return OptinavError(
         f"{_reads_at_rest(reading, seconds)}, and the magnetic field turns in the body as that rate says: a steady "
         f"turn, which the estimator would take for its gyro bias (within bias_clip, ±{clip:.4g} rad/s), so the "
         "attitude would drift",
-        "pass " + (option if method == "iframe" else f"--method iframe {option}") + ", under the turn",
+        "pass " + _clip_option(wanted, method) + ", under the turn",
     )
 
 
