@@ -744,6 +744,25 @@ def test_with_polarization_a_disturbed_magnetometer_leaves_the_heading_alone():
         estimate(d["gyr"], d["acc"], d["dt"], mag=mag, pol=pol, method="mekf")
 
 
+def test_with_polarization_a_declined_field_is_used_once_the_declination_is_given():
+    """A field 15° east of true north (beyond mag_pol_th, 10°) beside polarization, which gives the true heading:
+    without the declination the field's azimuth disagrees with the polarization's heading and is not used (0 % of
+    the samples after the first 10 s; without that gate it pulled the heading 3.2° RMS off). With ``declination``
+    15° both are used, the field on every sample, and the heading is the truth's within the noise (0.18° RMSE;
+    polarization alone 0.19°)."""
+    n, d = 6000, np.radians(15.0)
+    s = synth(n, amp=0.8, seed=0, gyro_sigma=0.005, acc_sigma=0.05, aop_sigma=np.radians(1.0))
+    dip = np.radians(60.0)
+    m_n = 50.0 * np.array([np.cos(dip) * np.cos(d), np.cos(dip) * np.sin(d), np.sin(dip)])  # NED: D east of north
+    mag = np.einsum("nji,j->ni", dcm_from_quat(s["q"]), m_n) + np.random.default_rng(0).normal(0.0, 0.5, (n, 3))
+    pol = PolarizationMeasurement(s["aop"], s["sun"])
+    r0 = estimate(s["gyr"], s["acc"], s["dt"], mag=mag, pol=pol)
+    r = estimate(s["gyr"], s["acc"], s["dt"], mag=mag, pol=pol, declination=d)
+    assert r0.mag_used[1000:].mean() < 0.01 and r.mag_used[1000:].all() and r.pol_used == r0.pol_used > 0.8 * n
+    assert rmse(_heading_deg(r.q_b_n, s["q"])[1000:]) < 0.3
+    assert r.declination == d and "true heading (magnetic declination 15.00° E)" in r.summary()
+
+
 def test_iframe_with_polarization_streamed_equals_the_estimate():
     """AttitudeFilter.update_batch(pol=) (refused before) in chunks, and update(..., pol_sample=) one sample at a
     time, give estimate()'s attitude to 1e-12, with a magnetometer and without, a polarization sample missing every

@@ -229,6 +229,24 @@ def test_attitude_options_added_later_leave_an_unset_job_s_hash_as_it_was():
         assert batch.options_hash(other) != batch.options_hash(job)
 
 
+def test_an_attitude_declination_left_at_0_hashes_as_before_it_existed():
+    """iframe's ``declination`` (added with 0, the estimate as before) is part of the resolved options the hash
+    covers: left at 0 it is left out of them (every attitude job, iframe's and the input stage's of the other
+    methods, hashes as before, its journal resumed); set, it changes the hash."""
+    from optinav.attitude.unit import AttitudeOptions
+
+    for method in ("iframe", "gd"):
+        job = batch.BatchJob("attitude", AttitudeOptions(method=method), True)
+        resolved = batch.hashed_fields(job)["resolved"]
+        assert all("declination" not in v for v in resolved.values() if isinstance(v, dict)), method
+    job = batch.BatchJob("attitude", AttitudeOptions(mag=True), True)
+    zero = batch.BatchJob("attitude", AttitudeOptions(mag=True, options={"declination": 0.0}), True)
+    assert batch.hashed_fields(zero)["resolved"] == batch.hashed_fields(job)["resolved"]
+    turned = batch.BatchJob("attitude", AttitudeOptions(mag=True, options={"declination": 0.2}), True)
+    assert batch.hashed_fields(turned)["resolved"]["options"]["declination"] == 0.2
+    assert batch.options_hash(turned) != batch.options_hash(job)
+
+
 def test_journal_of_the_old_option_names_is_recomputed_not_mixed(units, tmp_path):
     """Rows journaled when the options were named ``rate``/``height``/``gyro``/``latitude`` carry another options
     hash: the next run recomputes every unit and the table holds only rows of the current options."""

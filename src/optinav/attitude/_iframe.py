@@ -130,7 +130,8 @@ P_HI_TAU = 28  # s, averaging time of the body-fixed field offset fitted while t
 P_REST_TAU_ACC = 29  # s, the accelerometer's low-pass time constant in I while at rest; 0 = tau_acc
 P_TAU_POL = 30  # s, the polarization heading correction's time constant
 P_MAG_POL_TH = 31  # rad, a field's azimuth beyond this from the heading polarization holds is not used; 0 = off
-PAR_SIZE = 32
+P_DECLINATION = 32  # rad, magnetic north's angle east of true north: added to every azimuth of the field
+PAR_SIZE = 33
 
 #: the least |dα′/dφ| (AoP per heading) a polarization sample must have to correct the heading: the heading's
 #: error is the AoP's divided by it (a level zenith-viewing sensor: 1; a sensor viewing near the horizon towards
@@ -305,11 +306,12 @@ def _axes(par):
 @numba.njit(inline="always", **_NJ)
 def _dip_azimuth(par, t0, t1, t2, t3, mx, my, mz, nm):
     """Dip (rad, down positive) and azimuth φ (rad, from north toward west, positive about up) of the field m
-    (norm nm) carried by t = q_c ⊗ q_g into the frame before the heading correction δ."""
+    (norm nm) carried by t = q_c ⊗ q_g into the frame before the heading correction δ, plus the declination D:
+    the field's horizontal part lies D east of true north, so δ = −φ turns the heading to the true one."""
     ux, uy, uz, nx, ny, nz, wx, wy, wz = _axes(par)
     vx, vy, vz = _rot(t0, t1, t2, t3, mx, my, mz)
     dip = math.asin(max(-1.0, min(1.0, -(vx * ux + vy * uy + vz * uz) / nm)))
-    return dip, math.atan2(vx * wx + vy * wy + vz * wz, vx * nx + vy * ny + vz * nz)
+    return dip, math.atan2(vx * wx + vy * wy + vz * wz, vx * nx + vy * ny + vz * nz) + par[P_DECLINATION]
 
 
 @numba.njit(inline="always", **_NJ)
@@ -353,7 +355,8 @@ def mag_restart(st):
 @numba.njit(**_NJ)
 def _hard_iron(st, par, t0, t1, t2, t3, mx, my, mz, hm):
     """Add a disturbed field sample to the body-fixed offset fit and solve it: m − Cᵀe(φ̂) = Cᵀ∂e/∂φ·δφ + b, e the
-    reference field (norm, dip) at the azimuth φ̂ = −δ the heading holds, C = C(t) body → the frame before δ,
+    reference field (norm, dip) at the azimuth φ̂ = −δ − D the heading holds (D the declination), C = C(t) body →
+    the frame before δ,
     weights exponentially forgotten over P_HI_TAU s. Sets st[S_HI_B:+3] and st[S_HI_V] (1: the fit has seen half
     its time, the spreads of Cᵀ∂e/∂φ and of the up direction Cᵀu are ≥ HI_MIN_SPREAD, and its residual is within
     HI_RMS_GATE of the field and below that of a field fixed in the room, m − Cᵀe = Cᵀd). Returns the azimuth
@@ -362,7 +365,7 @@ def _hard_iron(st, par, t0, t1, t2, t3, mx, my, mz, hm):
     ux, uy, uz, nx, ny, nz, wx, wy, wz = _axes(par)
     nr, dp = st[S_M_NORM], st[S_M_DIP]
     cd, sd = nr * math.cos(dp), nr * math.sin(dp)
-    cp, sp = math.cos(st[S_DELTA]), -math.sin(st[S_DELTA])
+    cp, sp = math.cos(st[S_DELTA] + par[P_DECLINATION]), -math.sin(st[S_DELTA] + par[P_DECLINATION])
     ex, ey, ez = (
         cd * (cp * nx + sp * wx) - sd * ux,
         cd * (cp * ny + sp * wy) - sd * uy,

@@ -81,7 +81,16 @@ from optinav.attitude.iframe import (
     run_iframe,
 )
 from optinav.attitude.iframe import input_stage as _input_stage
-from optinav.attitude.methods import DEFAULTS, METHODS, _method, _options, bias_clip, offline_pol_refused, variant
+from optinav.attitude.methods import (
+    DEFAULTS,
+    METHODS,
+    _method,
+    _options,
+    bias_clip,
+    declination_without_mag,
+    offline_pol_refused,
+    variant,
+)
 from optinav.attitude.measurement import (
     PolarizationMeasurement,
     as_c_b_m,
@@ -198,6 +207,12 @@ class AttitudeEstimate(Estimate):
     gates: list = field(default_factory=list)
 
     @property
+    def declination(self) -> float:
+        """rad, east positive: the magnetic declination the magnetometer's heading was turned by to the true one
+        (iframe's option; 0: the heading magnetic, as in files written before the option)."""
+        return float(self.options.get("declination", 0.0)) if self.method == "iframe" else 0.0
+
+    @property
     def mag_used_before_fit(self) -> bool:
         """With :attr:`mag_hard_iron_from`: whether the field was used as measured before it (the offset turns its
         heading little: :func:`checks.measured_before_fit`); else it was unused there, the heading the gyro's."""
@@ -253,6 +268,7 @@ class AttitudeEstimate(Estimate):
             mag_used_before_fit=self.mag_used_before_fit,
             pol_used=self.pol_used,
             pol_skipped=self.pol_skipped,
+            declination=self.declination,
         )
 
 
@@ -274,6 +290,7 @@ def summary_line(
     mag_rows: int | None = None,
     mag_hard_iron_from: int | None = None,
     mag_used_before_fit: bool = False,
+    declination: float = 0.0,
 ) -> str:
     """One line on an estimate of ``n`` samples, starting with its :func:`variant`; ``rest``/``mag_used`` the
     fractions of samples at rest and with the magnetometer used, ``mag_offset_used`` of those used less a fitted
@@ -281,7 +298,7 @@ def summary_line(
     ``mag_hard_iron_from``, fitted online from past samples and used from that sample on, the field before it as
     measured with ``mag_used_before_fit``, else unused);
     ``mag_rows`` the rows holding a magnetometer sample: fewer than ``n`` (a slower magnetometer), the share is
-    of those."""
+    of those; ``declination`` (rad, east positive) the one the magnetometer's heading was turned by (0: none)."""
     pol_skipped = pol_skipped or {}
     skipped = sum(pol_skipped.values())
     s = f"{variant(method, offline=offline, input_stage=input_stage)}: {n} samples ({frame})"
@@ -307,6 +324,9 @@ def summary_line(
                 )
                 how = f"fitted online from past samples; the magnetometer used from sample {mag_hard_iron_from} on, {before}"
             s += f"; magnetometer offset [{b}] subtracted ({how})"
+        if declination:
+            side = "E" if declination > 0 else "W"
+            s += f"; true heading (magnetic declination {abs(np.degrees(declination)):.2f}° {side})"
     if pol_used or skipped:
         s += f"; polarization used {pol_used}, skipped {skipped} " + str(pol_skipped)
     return s
@@ -658,7 +678,8 @@ def estimate(
         Initial attitude q_b^n [-] ([w, x, y, z]); None: levelled from acc[0], heading from pol[0] if usable,
         else 0.
     mag : (N, 3) array or None
-        Magnetometer [any unit] (iframe).
+        Magnetometer [any unit] (iframe): a magnetic heading, or the true one with the option ``declination``
+        [rad, east positive] (docs/conventions.md).
     mag_hard_iron : (3,) array, "online" or None
         The magnetometer's hard-iron offset [its unit], subtracted from every row. None: with ``checks``, a field
         norm that follows the orientation as a constant offset makes it is fitted (:func:`checks.hard_iron`):
@@ -687,6 +708,8 @@ def estimate(
     frame = frame_name(frame)
     method = _method(method, pol, mag is not None)
     opts = _options(method, options)
+    if mag is None and opts.get("declination"):
+        raise declination_without_mag()
     gyr, acc, mag = _checked_imu(gyr, acc, mag)
     n = gyr.shape[0]
     dts = _as_dt(dt, n)
@@ -822,8 +845,10 @@ def estimate(
 
         def part(a, b):
             m = None if mag is None else mag[a:b]
-            # a segment before the online hard-iron fit passed has no field to use: run without, none used
+            # a segment before the online hard-iron fit passed has no field to use: run without (and without the
+            # declination, which turns the field's heading only), none used
             none = m is not None and not np.isfinite(m).all(axis=1).any()
+            kw = {**options, "declination": 0.0} if none else options
             p = estimate(
                 gyr[a:b],
                 acc[a:b],
@@ -836,7 +861,7 @@ def estimate(
                 offline=offline,
                 input_stage=input_stage,
                 checks=False,
-                **options,
+                **kw,
             )
             if none:
                 p.mag_used, p.mag_offset_used = np.zeros(b - a, bool), 0.0
@@ -849,7 +874,7 @@ def estimate(
             q_b_n=cat("q_b_n"),
             method=method,
             frame=frame,
-            options=first.options,
+            options=opts,
             pol_used=sum(p.pol_used for p in parts),
             pol_skipped={k: sum(p.pol_skipped.get(k, 0) for p in parts) for k in first.pol_skipped},
             acc_threshold_hits=sum(p.acc_threshold_hits for p in parts),

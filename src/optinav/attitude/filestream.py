@@ -103,6 +103,7 @@ class StreamedEstimate:
     mag_hard_iron: np.ndarray | None = None
     mag_hard_iron_from: int | None = None
     mag_used_before_fit: bool = False  # the field as measured before mag_hard_iron_from (else unused)
+    declination: float = 0.0  # rad, east positive: the magnetometer's heading turned by it to the true one
 
     @property
     def SCHEMA(self) -> str:  # noqa: N802 - the attribute every result has
@@ -875,11 +876,13 @@ def _stream_offline(
         mag_rows=mag_rows if src.mag else None,
         mag_hard_iron=hard_iron[0] if src.mag else None,
         mag_hard_iron_fitted=hard_iron[1],
+        declination=opts["declination"],
     )
     est = StreamedEstimate(
         "iframe", frame, line, acc_threshold_hits=acc_hits, gyr_bias=bias, mag_used=mag_used if src.mag else None,
         mag_rows=mag_rows if src.mag else None, offline=True,
         mag_hard_iron=None if hard_iron[0] is None or not src.mag else np.asarray(hard_iron[0], float),
+        declination=opts["declination"],
     )  # fmt: skip
     if truth is not None:
         est.truth_comparison = truth.result(est, n)
@@ -1066,7 +1069,7 @@ def _offline_heading(
                 seen |= bool(used.any())
                 _k.outer_sum(db, mom)
                 psi = _if.gyro_heading(col(r, "q"), col(r, "qg"), frame)
-                r[:, v + 2] = _if.field_azimuth(col(r, "q"), col(r, "mag"), frame) - psi
+                r[:, v + 2] = _if.field_azimuth(col(r, "q"), col(r, "mag"), frame, opts["declination"]) - psi
             n = r.shape[0] * (not first)
             x, p, xr, phi = np.empty(r.shape[0]), np.empty(r.shape[0]), np.empty((n, 3)), np.empty((n, 3))
             u = none if first else np.ascontiguousarray(_if.body_up(col(r, "q"), frame))
@@ -1171,7 +1174,7 @@ def stream_attitude(
     :class:`~optinav.core.results.Truth` compared with the estimate (:attr:`StreamedEstimate.truth_comparison`).
     Bad input raises :class:`OptinavError` before anything is written under ``out``."""
     from optinav.attitude.checks import aop_range
-    from optinav.attitude.methods import _method, _options, bias_clip, offline_pol_refused
+    from optinav.attitude.methods import _method, _options, bias_clip, declination_without_mag, offline_pol_refused
     from optinav.core.progress import progress_blocks, step
     from optinav.core.rotations import frame_name
 
@@ -1197,6 +1200,8 @@ def stream_attitude(
         raise OptinavError(
             "--mag-hard-iron was given without a magnetometer", "add --mag (or --mag-columns, --mag-file)"
         )
+    if not src.mag and StreamEstimator.check(method, o.options).get("declination"):
+        raise declination_without_mag()
 
     step("checks")
     checks, bad, aop_lo, aop_hi, aop_n, t_first, t_last = StreamChecks(), 0, np.inf, -np.inf, 0, None, None
@@ -1351,4 +1356,5 @@ def _estimate(e: StreamEstimator) -> StreamedEstimate:
         mag_hard_iron=e.hard_iron_used if e.mag_used is not None else None,
         mag_hard_iron_from=e.mag_hard_iron_from,
         mag_used_before_fit=e.mag_used_before_fit,
+        declination=e.declination,
     )

@@ -20,7 +20,8 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   disturbed, a body-fixed offset (a magnet on the board) is fitted over ``hard_iron_tau`` s with the heading's
   error (m − Cᵀe = Cᵀ∂e/∂φ·δφ + b) and, once the body has turned and tilted enough to tell them apart and the
   residual is small and below that of a field fixed in the room, the field less it goes through the same gates
-  (the offline heading uses the measured fields only);
+  (the offline heading uses the measured fields only); ``declination`` (rad, east positive) is added to the
+  field's azimuth wherever it is compared with a heading, so that the heading is the true one;
 * skylight polarization (online): after each step the heading at which the predicted AoP equals the measured
   one (closed form, the root nearest the current heading) moves δ with a running mean growing to ``tau_pol`` s
   (:func:`_iframe._pol_update`), beside the magnetometer's corrections;
@@ -141,6 +142,7 @@ def _params(frame: str, opts: dict) -> np.ndarray:
     p[_k.P_REST_TAU_ACC] = opts["rest_tau_acc"]
     p[_k.P_TAU_POL] = opts["tau_pol"]
     p[_k.P_MAG_POL_TH] = opts["mag_pol_th"]
+    p[_k.P_DECLINATION] = opts["declination"]
     return p
 
 
@@ -383,7 +385,7 @@ def run_iframe(
     if m.shape[0] and opts["tau_mag_smooth"] > 0.0 and used.any():
         tau = opts["tau_mag_smooth"]
         psi = gyro_heading(q, qg, frame)
-        d = field_azimuth(q, m, frame) - psi  # the azimuth in the attitude whose heading the gyro carries
+        d = field_azimuth(q, m, frame, opts["declination"]) - psi  # in the attitude whose heading the gyro carries
         db = np.ascontiguousarray(fwd.gyr_bias - bias)
         sb = bias_gap(q, db, frame)
         out = _smoothed_offset(d, used, sb, dts, tau, 0.0)
@@ -411,15 +413,16 @@ def measured_used(r: FilterRun) -> np.ndarray:
     return r.mag_used if r.mag_offset is None else r.mag_used & ~r.offset_used
 
 
-def field_azimuth(q, mag, frame) -> np.ndarray:
+def field_azimuth(q, mag, frame, declination: float = 0.0) -> np.ndarray:
     """Azimuth (N,) rad of the magnetometer's horizontal field in the navigation frame of the attitudes ``q``
-    (N, 4), from north toward west (positive about up): the heading error the field shows."""
+    (N, 4), from north toward west (positive about up), plus the ``declination`` (rad, east positive: the field
+    lies that far east of true north): the heading error the field shows (as :func:`_iframe._dip_azimuth`)."""
     from optinav.core.rotations import quat_rotate
 
     f = frame_name(frame)
     up, north = _UP[f], _NORTH[f]
     v = quat_rotate(q, mag)
-    return np.arctan2(v @ np.cross(up, north), v @ north)
+    return np.arctan2(v @ np.cross(up, north), v @ north) + declination
 
 
 def _smoothed_offset(d, used, sb, dts, tau, sa2, u=None, pb=None):

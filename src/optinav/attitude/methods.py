@@ -42,6 +42,7 @@ IFRAME_DEFAULTS: dict[str, float] = {
     "latency": 0.0,  # s, how late the IMU's samples are: the output is predicted that far ahead
     "tau_pol": 2.0,  # s, heading correction time constant of skylight polarization (pol=)
     "mag_pol_th": 10.0 * _D2R,  # rad, a field's azimuth this far from the heading polarization holds: unused; 0 = off
+    "declination": 0.0,  # rad, magnetic north's angle east of true north (WMM's sign): the magnetometer's heading true
 }
 
 #: the estimators of :func:`optinav.attitude.estimate`
@@ -98,6 +99,8 @@ def variant(method: str, *, offline: bool = False, input_stage: bool = True) -> 
 _DIVISORS = {"mekf": ("acc_noise_density", "pol_noise", "gravity", "acc_inflate"), "qn": ("gravity",)}
 #: the smallest divisor whose 1/σ² is finite
 _MIN_DIVISOR = 1.0 / np.sqrt(np.finfo(float).max)
+#: options that take either sign, with the bound of their magnitude (a declination is an angle east or west)
+_SIGNED = {("iframe", "declination"): np.pi}
 
 
 #: options that were replaced: (method, old name) → (what changed, the remedy)
@@ -125,7 +128,12 @@ def _options(method: str, options: dict) -> dict:
             fv = float(v)
         except (TypeError, ValueError):
             fv = float("nan")
-        if not np.isfinite(fv) or fv < 0:
+        if (method, k) in _SIGNED:
+            if not abs(fv) <= _SIGNED[method, k]:
+                raise OptinavError(
+                    f"option {k}={v!r} must be within ±{_SIGNED[method, k]:.6g} rad", f"pass {k} in rad, east positive"
+                )
+        elif not np.isfinite(fv) or fv < 0:
             raise OptinavError(f"option {k}={v!r} must be a finite non-negative number", f"pass a valid {k}")
         if k in _DIVISORS.get(method, ()) and not fv > _MIN_DIVISOR:
             raise OptinavError(f"option {k}={v!r} must be > 0 (the filter divides by it)", f"pass a positive {k}")
@@ -155,6 +163,14 @@ def offline_pol_refused() -> OptinavError:
     return OptinavError(
         "--offline takes no polarization yet (the offline heading is smoothed from the magnetometer only)",
         "drop --offline (offline=False) to use the polarization online",
+    )
+
+
+def declination_without_mag() -> OptinavError:
+    """The refusal of a declination given without a magnetometer (it turns the field's heading only)."""
+    return OptinavError(
+        "a magnetic declination was given without a magnetometer: it turns only the magnetometer's heading",
+        "add --mag (mag=), or drop --declination-deg (declination=)",
     )
 
 

@@ -498,4 +498,10 @@ class StreamEstimator:
             mag_hard_iron_fitted=self.mag_hard_iron_fitted or self._fit is not None,
             mag_hard_iron_from=self.mag_hard_iron_from,
             mag_used_before_fit=self.mag_used_before_fit,
+            declination=self.declination,
         )
+
+    @property
+    def declination(self) -> float:
+        """rad, east positive: the magnetic declination iframe turns the magnetometer's heading by (0 otherwise)."""
+        return float(self.opts.get("declination", 0.0))

@@ -81,11 +81,18 @@ class AttitudeOptions:
         out = {"method": m, "options": _options(m, dict(self.options))}
         if self.input_stage and m != "iframe":
             out["input_stage"] = dict(IFRAME_DEFAULTS)
+        for opts in out.values():
+            # added since with 0, the estimate as before: unset, it hashes as before it existed (journals current)
+            if isinstance(opts, dict) and opts.get("declination", 1.0) == 0.0:
+                del opts["declination"]
         return out
 
 
 def check(options: AttitudeOptions) -> None:
-    _options(_method(options.method, None), dict(options.options))
+    if _options(_method(options.method, None), dict(options.options)).get("declination") and not options.uses_mag:
+        from optinav.attitude.methods import declination_without_mag
+
+        raise declination_without_mag()
 
 
 def refuse_unused_mag_topic(path, options: AttitudeOptions) -> None:
@@ -314,6 +321,8 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[S
         extra.update(zip(("mag_hard_iron_x", "mag_hard_iron_y", "mag_hard_iron_z"), map(float, e.mag_hard_iron)))
         if e.mag_hard_iron_from is not None:
             extra["mag_hard_iron_from"] = int(e.mag_hard_iron_from)
+    if e.declination:  # the heading true, the field turned by it (its column only where one was given)
+        extra["declination_deg"] = float(np.degrees(e.declination))
     if run.score is not None:
         inclination, heading, n = run.score
         extra.update(

@@ -108,6 +108,7 @@ def register(sub) -> None:
         help="names of the magnetometer columns ('-' before one reads it negated), or of its N×3 array (implies --mag)",
     )
     _add_hard_iron(p)
+    _add_declination(p, "option", [])
     p.add_argument(
         "--mag-file",
         dest="mag_path",
@@ -204,6 +205,40 @@ def _add_hard_iron(p) -> None:
     )
 
 
+#: help of --declination-deg (optinav attitude and batch attitude)
+DECLINATION_HELP = (
+    "iframe: the magnetic declination in deg, east positive (magnetic north east of true north, as the World "
+    "Magnetic Model gives it; west negative): the magnetometer's heading is turned to the true one (default 0: "
+    "magnetic heading)"
+)
+DECLINATION = number(-180.0, 180.0, what="an angle in degrees")
+
+
+def _add_declination(p, dest: str, default) -> None:
+    """--declination-deg into the estimator options of ``dest`` (``attitude``'s --option list, ``batch attitude``'s
+    option dict, its ``default``)."""
+    p.add_argument(
+        "--declination-deg",
+        type=DECLINATION,
+        metavar="DEG",
+        help=DECLINATION_HELP,
+        dest=dest,
+        default=default,
+        action=_DeclinationAction,
+    )
+
+
+class _DeclinationAction(argparse.Action):
+    """--declination-deg DEG as the estimator option ``declination`` (rad): one more KEY=VALUE item of
+    ``attitude``'s --option list, or a key of ``batch attitude``'s option dict (as --option sets them: the last
+    given wins)."""
+
+    def __call__(self, parser, namespace, value, option_string=None):
+        rad, old = math.radians(value), getattr(namespace, self.dest, None)
+        new = [*old, f"declination={rad!r}"] if isinstance(old, list) else {**(old or {}), "declination": rad}
+        setattr(namespace, self.dest, new)
+
+
 def add_batch_options(p) -> None:
     """``optinav batch attitude``: the options of ``optinav attitude`` a folder shares (registry hook;
     destinations are the fields of :class:`optinav.attitude.unit.AttitudeOptions`)."""
@@ -224,6 +259,7 @@ def add_batch_options(p) -> None:
         help="names of the magnetometer columns ('-' before one reads it negated), or of its N×3 array (implies --mag)",
     )
     _add_hard_iron(p)
+    _add_declination(p, "options", {})
     p.add_argument("--allow-gaps", action="store_true", help="restart the estimate after a time gap")
     p.add_argument("--drop-nan", action="store_true", help=DROP_NAN_HELP)
     p.add_argument("--frame", choices=["NED", "ENU"], default="NED", help="navigation frame (default NED)")

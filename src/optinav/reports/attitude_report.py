@@ -41,6 +41,8 @@ def attitude_tables(res, n_samples: int, score=None) -> list[Table]:
         # of the rows holding a sample: a magnetometer slower than the IMU has NaN rows between (not rejections)
         m = getattr(res, "mag_rows", None) or int(n_samples)
         rows.append(["magnetometer samples used [%]", Cell(100.0 * k / max(m, 1), _fixed(1))])
+        # the heading's north: magnetic (0) or true, the field turned by the declination given
+        rows.append(["magnetic declination, east positive [deg]", Cell(np.degrees(res.declination), _fixed(2))])
     if score is not None:
         rows += [
             ["inclination RMSE vs reference [deg]", Cell(float(np.degrees(score[0])), _fixed(3))],
