@@ -32,7 +32,13 @@ def _values(tables):
 
 @pytest.mark.parametrize(
     "method, offline, pol",
-    [("iframe", False, False), ("iframe", True, False), ("qn", False, False), ("mekf", False, True)],
+    [
+        ("iframe", False, False),
+        ("iframe", True, False),
+        ("qn", False, False),
+        ("mekf", False, True),
+        ("iframe", True, True),
+    ],
 )
 def test_streamed_report_fields_are_the_in_memory_estimates(flight, tmp_path, method, offline, pol):
     d, path, sun = flight

@@ -867,7 +867,9 @@ def _pol_update(st, par, sx, sy, sz, cbm, aop, min_d2, h):
     from the first used sample (which sets it there, whatever a magnetometer set: the polarization's heading is
     the true one, and :func:`_pol_gate` then holds the field to it) growing to hp/tau_pol (hp the time since the
     previous sample); the output st[S_Q] is turned by the change. Returns the
-    sample's POL_* outcome. Measurement model: :func:`optinav.attitude._kernels._model`."""
+    sample's POL_* outcome. Measurement model: :func:`optinav.attitude._kernels._model`. The root depends on the
+    attitude and the sun at the sample alone, not on the direction of time: the offline backward pass takes the
+    samples alike (the gain's clock, S_TIME, runs on in either)."""
     ux, uy, uz = par[P_UP], par[P_UP + 1], par[P_UP + 2]
     t0, t1, t2, t3 = _qmul(
         st[S_QC], st[S_QC + 1], st[S_QC + 2], st[S_QC + 3], st[S_QG], st[S_QG + 1], st[S_QG + 2], st[S_QG + 3]

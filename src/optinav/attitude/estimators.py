@@ -88,7 +88,6 @@ from optinav.attitude.methods import (
     _options,
     bias_clip,
     declination_without_mag,
-    offline_pol_refused,
     variant,
 )
 from optinav.attitude.measurement import (
@@ -670,8 +669,8 @@ def estimate(
     pol : PolarizationMeasurement or None
         Skylight-polarization samples.
     method : str or None
-        "iframe" (default without ``pol``, and with ``pol`` and ``mag``), "mekf" (default with ``pol`` alone),
-        "qn", "gd" or "cg".
+        "iframe" (default without ``pol``, and with ``pol`` and ``mag`` or ``offline``), "mekf" (default with
+        ``pol`` alone online), "qn", "gd" or "cg".
     frame : str
         Navigation frame, ``"ned"`` or ``"enu"``.
     q0 : (4,) array or None
@@ -689,7 +688,7 @@ def estimate(
         the offset to pass here). Before, the field is used as measured where the whole recording's offset turns
         its heading by under 20° (:func:`checks.measured_before_fit`; ``mag_used_before_fit``), else unused.
     offline : bool
-        Use the whole recording (iframe).
+        Use the whole recording (iframe; with ``pol`` too).
     input_stage : bool
         Put the iframe front end (gyro bias, accelerometer filtered in an almost-inertial frame) before
         gd/cg/qn/mekf (default); False runs them exactly as published. iframe has it built in.
@@ -706,7 +705,7 @@ def estimate(
         ``q_b_n`` (N, 4) q_b^n [w, x, y, z] plus per-sample flags, counts and σ [rad].
     """
     frame = frame_name(frame)
-    method = _method(method, pol, mag is not None)
+    method = _method(method, pol, mag is not None, offline)
     opts = _options(method, options)
     if mag is None and opts.get("declination"):
         raise declination_without_mag()
@@ -727,8 +726,6 @@ def estimate(
         raise OptinavError(f"method {method} takes no magnetometer", "use --method iframe with --mag-columns")
     if offline and method != "iframe":
         raise OptinavError(f"method {method} has no offline mode", "use --method iframe with --offline")
-    if offline and pol is not None:
-        raise offline_pol_refused()
     gaps = find_gaps(dts)
     ahead = None
     if checks and method == "iframe" and mag is None and not gaps.size:

@@ -769,14 +769,19 @@ class _Scratch:
 
 
 def _stream_offline(
-    src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points=0, truth=None, hard_iron=(None, False)
-) -> StreamRun:
+    src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points=0, truth=None, hard_iron=(None, False),
+    pol=None, t_first=0.0,
+) -> StreamRun:  # fmt: skip
     """``--offline`` of a log read block by block: the second pass over the file keeps the inputs in a scratch
     file beside ``out`` (None: in the temporary folder), the magnetometer less ``hard_iron`` ((offset or None,
-    whether it was fitted)); each segment (between time gaps) then runs
+    whether it was fitted)) and the polarization's kernel inputs (``pol``, :class:`PolColumns` of a log starting at
+    ``t_first`` s); each segment (between time gaps) then runs
     :func:`_offline_segment` over it, and a last forward pass writes the CSV (none when ``out`` is None). The
     output is the in-memory ``estimate(..., offline=True)``'s byte for byte."""
     from optinav.attitude.estimators import summary_line
+    from optinav.attitude._iframe import POL_USED
+    from optinav.attitude.iframe import pol_skipped
+    from optinav.attitude.measurement import PolarizationMeasurement, pol_inputs
     from optinav.attitude.methods import IFRAME_DEFAULTS, _options
     from optinav.core.files import scratch_file
     from optinav.core.progress import progress_blocks
@@ -792,6 +797,9 @@ def _stream_offline(
         fields.update(mag=3, hx=6)
     if score is not None:
         fields.update(q_ref=4, movement=1)
+    if pol is not None:
+        # the polarization's kernel inputs (usable, sun, AoP), then its outcome (iframe.either_pass)
+        fields.update(puse=1, sun=3, aop=1, pol=1)
     # without an output file (a batch unit) the scratch file goes to the temporary folder
     place = Path(out) if out is not None else Path(tempfile.gettempdir()) / src.path.name
     need, free = checks.n * sum(fields.values()) * 8, _free_bytes(place)
@@ -803,6 +811,7 @@ def _stream_offline(
             if out is not None
             else "set TMPDIR to a disk with more free space, or drop --offline",
         )
+    pol_const, skipped = None, {}  # (C_b^m, min_d2) of the polarization sensor; its samples left out by the inputs
     with scratch_file(place) as fh:
         store = _Scratch(fh, fields)
         for row0, t, gyr, acc, dts, _, extra in progress_blocks(src, "attitude: iframe offline", progress):
@@ -811,6 +820,15 @@ def _stream_offline(
                 more = {k: extra[k] for k in ("mag", "q_ref", "movement") if k in store.cols}
                 if "mag" in more and hard_iron[0] is not None:
                     more["mag"] = more["mag"] - hard_iron[0]
+                if pol is not None:
+                    aop = np.radians(extra["aop"]) if pol.aop_unit == "deg" else extra["aop"]
+                    pm = PolarizationMeasurement(
+                        aop, pol.sun(t, t_first), dop=extra.get("dop"), frame=frame, min_dop=pol.min_dop
+                    )
+                    use, sn, cbm, a0, min_d2, sk = pol_inputs(pm, len(t), frame, "the IMU")
+                    pol_const = cbm, min_d2
+                    skipped = {k: skipped.get(k, 0) + v for k, v in sk.items()}
+                    more.update(puse=use, sun=np.broadcast_to(sn, (len(t), 3)), aop=a0)
                 store.append(t=t, gyr=gyr, acc=acc, dts=dts, **more)
         checks.finish_second(frame)
         gaps = checks.gaps
@@ -829,8 +847,9 @@ def _stream_offline(
         bounds = list(zip(np.r_[0, gaps], np.r_[gaps, store.n]))
         lat = 0.0
         for k, (a, b) in enumerate(bounds):
-            lat = _offline_segment(store, int(a), int(b), opts, frame, q0 if k == 0 else None, blk)
-        rest = mag_used = acc_hits = mag_rows = 0
+            lat = _offline_segment(store, int(a), int(b), opts, frame, q0 if k == 0 else None, blk, pol_const)
+        rest = mag_used = acc_hits = mag_rows = pol_used = 0
+        left = {}  # the polarization samples neither pass used, by the forward pass's reason (iframe.pol_skipped)
         fig = _Decimated(store.n, figure_points) if figure_points else None
         with _rows_writer(out) as write:
             for a in range(0, store.n, blk):
@@ -860,11 +879,17 @@ def _stream_offline(
                 mag_used += int(np.count_nonzero(flags[:, 2]))
                 if src.mag:
                     mag_rows += int(np.count_nonzero(np.isfinite(store.col(r, "mag")).all(axis=1)))
+                if pol is not None:
+                    code = store.col(r, "pol")[:, 0]
+                    for k, v in pol_skipped({}, code).items():
+                        left[k] = left.get(k, 0) + v
+                    pol_used += int(np.count_nonzero(code == POL_USED))
                 if truth is not None:
                     truth.add(a, q)
             result = None if score is None else score.result()
         n = store.n
         bias = store.col(store.read(n - 1, n), "bias")[0].copy() if n else None
+    skipped = {**skipped, **left}
     line = summary_line(
         "iframe",
         frame,
@@ -877,10 +902,12 @@ def _stream_offline(
         mag_hard_iron=hard_iron[0] if src.mag else None,
         mag_hard_iron_fitted=hard_iron[1],
         declination=opts["declination"],
+        pol_used=pol_used,
+        pol_skipped=skipped,
     )
     est = StreamedEstimate(
         "iframe", frame, line, acc_threshold_hits=acc_hits, gyr_bias=bias, mag_used=mag_used if src.mag else None,
-        mag_rows=mag_rows if src.mag else None, offline=True,
+        mag_rows=mag_rows if src.mag else None, offline=True, pol_used=pol_used, pol_skipped=skipped,
         mag_hard_iron=None if hard_iron[0] is None or not src.mag else np.asarray(hard_iron[0], float),
         declination=opts["declination"],
     )  # fmt: skip
@@ -910,12 +937,14 @@ def _free_bytes(path) -> float:
         return float("inf")
 
 
-def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0, blk: int) -> float:
+def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0, blk: int, pol=None) -> float:
     """:func:`optinav.attitude.iframe.run_iframe` with ``offline=True`` on the rows [a, b) of ``store``, in
     blocks of ``blk`` rows with the states carried: the forward pass, the backward pass over the reversed rows
     (fused with the forward one), and the zero-phase tilt refinement (strapdown, then the forward–backward
     Butterworth filter as ``scipy.signal.filtfilt`` computes it, from the padded ends). Leaves the smoothed q,
-    the bias and the flags (rest, acc used, mag used) in ``store``; returns the latency still to apply (s)."""
+    the bias and the flags (rest, acc used, mag used; the polarization's outcome in "pol") in ``store``; returns
+    the latency still to apply (s). ``pol``: (C_b^m, min_d2) of the polarization sensor whose inputs ``store``
+    holds, or None."""
     from scipy.signal import lfilter, lfilter_zi
 
     from optinav.attitude import _iframe as _k
@@ -929,9 +958,18 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
     par[_k.P_LATENCY] = 0.0  # applied once, to the smoothed result
     no_mag = np.zeros((0, 3))
     mag = (lambda r: col(r, "mag")) if "mag" in c else (lambda r: no_mag)
+
+    def pin(r, reverse=False):
+        """The rows' polarization inputs (iframe.run_iframe's), reversed for the backward pass; None without."""
+        if pol is None:
+            return None
+        p = (col(r, "puse")[:, 0] != 0.0, col(r, "sun"), pol[0], col(r, "aop")[:, 0], pol[1], {})
+        return _if.reversed_pol(p) if reverse else p
+
     st = _if._new_state(opts, None if q0 is None else _as_q0(q0))
     finite = True
     t_run, h_last = 0.0, 0.0  # the elapsed time at the last row and the last step (s): the fusion weights
+    t_pol = None  # the elapsed time of the forward pass's first polarization sample used
     for s in range(a, b, blk):
         r = store.read(s, min(s + blk, b)).copy()
         h = col(r, "dts")[:, 0]
@@ -942,13 +980,19 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         t_run, h_last = float(t[-1]), float(h[-1])
         acc = col(r, "acc")
         finite &= bool(np.isfinite(acc).all())
-        f = _if._run(st, par, col(r, "gyr"), acc, mag(r), col(r, "dts")[:, 0])
+        code = np.empty(r.shape[0], np.int8)
+        f = _if._pass(st, par, col(r, "gyr"), acc, mag(r), col(r, "dts")[:, 0], pin(r), code)
+        if pol is not None:
+            r[:, c["pol"].start] = code
+            if t_pol is None and f.pol_used.any():
+                t_pol = _if.first_pol_time(t, f.pol_used)
         r[:, c["q"]] = f.q_b_n
         r[:, c["flags"]] = np.column_stack([f.rest, f.acc_used, _if.measured_used(f)])
         r[:, c["bfw"]] = f.gyr_bias
         store.write(s, r)
     # backward: reversed step j runs from sample i + 1 to i with −ω_{i+1} over dt_{i+1} (the last: 0 over dt_{b−1})
     st = _if.reversed_state(st)
+    held = t_pol is not None  # polarization holds the heading (iframe.run_iframe): no gyro or field heading after
     for e in range(b, a, -blk):
         s = max(e - blk, a)
         r = store.read(s, min(e + 1, b)).copy()
@@ -959,9 +1003,13 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         if r.shape[0] == k:
             d[k - 1] = r[k - 1, c["dts"]][0]
         r = r[:k]
-        w = _if._run(st, par, g[::-1].copy(), col(r, "acc")[::-1].copy(), mag(r)[::-1].copy(), d[::-1].copy())
+        rev = (g[::-1].copy(), col(r, "acc")[::-1].copy(), mag(r)[::-1].copy(), d[::-1].copy())
+        w = _if._pass(st, par, *rev, pin(r, reverse=True))
+        if pol is not None:
+            held |= bool(w.pol_used.any())
+            r[:, c["pol"].start] = _if.either_pass(col(r, "pol")[:, 0], w.pol_used[::-1])
         flags = col(r, "flags").astype(bool)
-        share = _if.backward_share(col(r, "v")[:, 0], t_run, h_last, opts["tau_acc"])
+        share = _if.backward_share(col(r, "v")[:, 0], t_run, h_last, opts["tau_acc"], t_pol or 0.0)
         r[:, c["q"]] = _if._fuse(col(r, "q"), w.q_b_n[::-1], share)
         r[:, c["bias"]] = -w.gyr_bias[::-1]
         r[:, c["flags"]] = np.column_stack(
@@ -971,7 +1019,8 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
     n = b - a
     p_bias = st[_k.S_P : _k.S_P + 9].copy()  # the smoothed bias's covariance (the offline heading's prior)
     if n < _if.MIN_REFINE_ROWS or not finite:  # iframe.refinable, the rows' finiteness gathered block by block
-        _offline_heading(store, a, b, opts, frame, blk, False, p_bias)
+        if not held:
+            _offline_heading(store, a, b, opts, frame, blk, False, p_bias)
         return lat
     # zero-phase refinement: strapdown with the smoothed bias, the specific force in its frame ("v")
     dts = np.concatenate([col(store.read(s, min(s + blk, b)), "dts")[:, 0] for s in range(a, b, blk)])
@@ -1014,7 +1063,8 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
             r = store.read(s, min(s + blk, b)).copy()
             r[:, c["q"]] = _if.tilt_halfway(col(r, "q"), col(r, "v"), frame)
             store.write(s, r)
-    if "mag" not in c:  # 6D: iframe.blended_bias's heading, the elapsed times summed again as in the forward pass
+    # 6D: iframe.blended_bias's heading, the elapsed times summed again as in the forward pass
+    if "mag" not in c and not held:
         q, t0, psi0 = col(store.read(a, a + 1), "q")[0].copy(), 0.0, None
         for s in range(a, b, blk):
             r = store.read(s, min(s + blk, b)).copy()
@@ -1028,7 +1078,8 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
             psi0 = psi[0] if psi0 is None else psi0
             r[:, c["q"]] = _if.heading_turned(col(r, "q"), psi - psi0, frame)
             store.write(s, r)
-    _offline_heading(store, a, b, opts, frame, blk, True, p_bias)
+    if not held:
+        _offline_heading(store, a, b, opts, frame, blk, True, p_bias)
     return lat
 
 
@@ -1174,20 +1225,18 @@ def stream_attitude(
     :class:`~optinav.core.results.Truth` compared with the estimate (:attr:`StreamedEstimate.truth_comparison`).
     Bad input raises :class:`OptinavError` before anything is written under ``out``."""
     from optinav.attitude.checks import aop_range
-    from optinav.attitude.methods import _method, _options, bias_clip, declination_without_mag, offline_pol_refused
+    from optinav.attitude.methods import _method, _options, bias_clip, declination_without_mag
     from optinav.core.progress import progress_blocks, step
     from optinav.core.rotations import frame_name
 
     o = options
     frame = frame_name(o.frame)
-    method = _method(o.method, True if pol is not None else None, o.uses_mag)
+    method = _method(o.method, True if pol is not None else None, o.uses_mag, o.offline)
     if o.offline and method != "iframe":
         raise OptinavError(f"method {method} has no offline mode", "use --method iframe with --offline")
     want_mag = o.uses_mag
     if want_mag and method != "iframe":
         raise OptinavError(f"method {method} takes no magnetometer", "use --method iframe with --mag-columns")
-    if o.offline and pol is not None:
-        raise offline_pol_refused()
     StreamEstimator.check(method, o.options)
     # a simulator's truth CSV holds q_b_n of the frame its STEM.truth.json names (the CSV does not say it)
     tf = None if truth is None else truth_frame(getattr(truth, "truth", truth), frame)
@@ -1252,8 +1301,9 @@ def stream_attitude(
     if o.offline:
         step("estimate (iframe offline), write")
         run = _stream_offline(
-            src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points, tcmp, (hard_iron, fitted)
-        )
+            src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points, tcmp, (hard_iron, fitted),
+            pol, t_first,
+        )  # fmt: skip
         return dataclasses.replace(run, duration_s=duration)
     estimator = StreamEstimator(
         method,

@@ -22,9 +22,11 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   residual is small and below that of a field fixed in the room, the field less it goes through the same gates
   (the offline heading uses the measured fields only); ``declination`` (rad, east positive) is added to the
   field's azimuth wherever it is compared with a heading, so that the heading is the true one;
-* skylight polarization (online): after each step the heading at which the predicted AoP equals the measured
+* skylight polarization: after each step the heading at which the predicted AoP equals the measured
   one (closed form, the root nearest the current heading) moves δ with a running mean growing to ``tau_pol`` s
-  (:func:`_iframe._pol_update`), beside the magnetometer's corrections;
+  (:func:`_iframe._pol_update`), beside the magnetometer's corrections; offline both passes take it, the forward
+  pass's running time in the fusion counts from its first polarization sample, and the heading is the fused
+  passes' (no smoother, no 6D gyro heading);
 * the motion bias update closes a loop through the low-pass: its innovation is clipped at ``bias_clip`` and its
   variance floored so that the loop is never faster than ``bias_loop`` × ``tau_acc`` (a start in motion); a
   correction rate beyond ``motion_gate`` σ of what the bias uncertainty explains is a sustained acceleration (a
@@ -74,7 +76,7 @@ import numpy as np
 
 from optinav.attitude import _iframe as _k
 from optinav.attitude.checks import MIN_GAP_S, gap_limit
-from optinav.attitude.methods import IFRAME_DEFAULTS, offline_pol_refused
+from optinav.attitude.methods import IFRAME_DEFAULTS
 from optinav.core.rotations import DEFAULT_FRAME, frame_name
 from optinav.errors import OptinavError
 
@@ -204,24 +206,57 @@ def _run(st, par, gyr, acc, mag, dts, restart: int = -1) -> FilterRun:
     return FilterRun(out, f[:, 0], f[:, 1], f[:, 2], bias, st, mag_offset=moff if mag.shape[0] else None)
 
 
-def _run_pol(st, par, gyr, acc, mag, dts, pol, frame: str, restart: int = -1) -> FilterRun:
-    """:func:`_run` with the polarization ``pol`` (:class:`~optinav.attitude.PolarizationMeasurement`, N samples)
-    correcting the heading (:func:`_iframe.run_pol`); its use and skipped counts in ``pol_used``/``pol_skipped``."""
-    from optinav.attitude.measurement import pol_inputs
-
-    use, sn, cbm, aop, min_d2, skipped = pol_inputs(pol, gyr.shape[0], frame, "the IMU")
+def _run_pol(st, par, gyr, acc, mag, dts, pin, restart: int = -1, code=None) -> FilterRun:
+    """:func:`_run` with the polarization correcting the heading (:func:`_iframe.run_pol`), ``pin`` its kernel inputs
+    for the N samples (:func:`~optinav.attitude.measurement.pol_inputs`); its use and skipped counts in
+    ``pol_used``/``pol_skipped``, each sample's POL_* outcome in ``code`` (N,) int8 where given."""
+    use, sn, cbm, aop, min_d2, skipped = pin
     n = gyr.shape[0]
     out, flags, bias = np.empty((n, 4)), np.empty((n, 4), np.int8), np.empty((n, 3))
-    moff, code = np.empty((mag.shape[0], 3)), np.empty(n, np.int8)
+    moff, code = np.empty((mag.shape[0], 3)), np.empty(n, np.int8) if code is None else code
     _k.run_pol(st, par, gyr, acc, mag, dts, use, sn, cbm, aop, min_d2, out, flags, bias, moff, code, restart)
     f = flags.astype(bool)
-    skipped = dict(skipped)
-    skipped["heading_unresolved"] = int(np.count_nonzero(code == _k.POL_UNRESOLVED))
-    skipped["sun_near_sensor_zenith"] = int(np.count_nonzero(code == _k.POL_NEAR_ZENITH))
     return FilterRun(
         out, f[:, 0], f[:, 1], f[:, 2], bias, st, mag_offset=moff if mag.shape[0] else None,
-        pol_used=code == _k.POL_USED, pol_skipped=skipped,
+        pol_used=code == _k.POL_USED, pol_skipped=pol_skipped(skipped, code),
     )  # fmt: skip
+
+
+def _pass(st, par, gyr, acc, mag, dts, pin=None, code=None) -> FilterRun:
+    """One pass over the samples: :func:`_run`, or :func:`_run_pol` with the polarization inputs ``pin``."""
+    return _run(st, par, gyr, acc, mag, dts) if pin is None else _run_pol(st, par, gyr, acc, mag, dts, pin, code=code)
+
+
+def pol_skipped(skipped: dict, code) -> dict:
+    """The polarization samples left out, by reason: those the inputs left out (``skipped``) and those whose
+    outcome ``code`` (N,) (:data:`_iframe.POL_UNRESOLVED`, :data:`_iframe.POL_NEAR_ZENITH`) says so."""
+    out = dict(skipped)
+    out["heading_unresolved"] = int(np.count_nonzero(code == _k.POL_UNRESOLVED))
+    out["sun_near_sensor_zenith"] = int(np.count_nonzero(code == _k.POL_NEAR_ZENITH))
+    return out
+
+
+def reversed_pol(pin):
+    """The polarization inputs ``pin`` (:func:`~optinav.attitude.measurement.pol_inputs`) of the time-reversed
+    recording: sample N−1−k at reversed step k, as :func:`_reverse` orders the IMU's (an AoP depends on the
+    attitude and the sun at its sample, not on the direction of time: :func:`_iframe._pol_update`)."""
+    use, sn, cbm, aop, min_d2, skipped = pin
+    sn = sn[::-1] if sn.shape[0] > 1 else sn
+    return use[::-1].copy(), np.ascontiguousarray(sn), cbm, aop[::-1].copy(), min_d2, skipped
+
+
+def either_pass(fwd_code, bwd_used) -> np.ndarray:
+    """The offline outcome (N,) int8 of each polarization sample: POL_USED where either pass used it (both feed the
+    fused heading), else the forward pass's (``fwd_code`` (N,); ``bwd_used`` (N,) bool in forward order)."""
+    return np.where(bwd_used, _k.POL_USED, fwd_code).astype(np.int8)
+
+
+def first_pol_time(t, pol_used) -> float:
+    """s, the elapsed time ``t`` (N,) of the forward pass's first polarization sample used (``pol_used`` (N,)): its
+    heading before it is the start's guess (or the field's), so the offline fusion counts its running time from there
+    (:func:`backward_share`); 0 where none was used (as without polarization)."""
+    k = np.flatnonzero(pol_used)
+    return float(t[k[0]]) if k.size else 0.0
 
 
 def online_fit_state(measured: bool = False) -> np.ndarray:
@@ -299,14 +334,15 @@ def reversed_state(state: np.ndarray) -> np.ndarray:
     return st
 
 
-def backward_share(t, t_end: float, h_last: float, tau: float) -> np.ndarray:
+def backward_share(t, t_end: float, h_last: float, tau: float, t_start: float = 0.0) -> np.ndarray:
     """Weight (N,) of the backward estimate in the offline fusion at the elapsed times ``t`` (s, the sum of the
     steps up to each sample; ``t_end`` the last one, ``h_last`` the last step): each pass is weighted by how long
     it has run, 1 − exp(−t/(SETTLE_TAUS·τ)) (τ = ``tau_acc``) — ½ in the middle, the backward pass alone at the
     start, where the forward one is still settling (a recording that starts in motion), and the forward pass at
-    the end."""
+    the end. The forward pass's time counts from ``t_start`` (s; its first polarization sample: its heading before
+    is a guess), the backward pass alone before it."""
     s = SETTLE_TAUS * tau
-    wf = -np.expm1(-np.asarray(t, float) / s)
+    wf = -np.expm1(-np.maximum(np.asarray(t, float) - t_start, 0.0) / s)
     wb = -np.expm1(-(t_end - np.asarray(t, float) + h_last) / s)
     return wb / (wf + wb)
 
@@ -341,48 +377,53 @@ def run_iframe(
     gyr, acc, dts, *, mag=None, pol=None, frame: str = DEFAULT_FRAME, q0=None, offline: bool = False, **options
 ) -> FilterRun:
     """Run the estimator on checked (N, 3) float arrays; ``dts`` (1,) or (N,) s; ``mag`` (N, 3) any unit or
-    None; ``pol`` a :class:`~optinav.attitude.PolarizationMeasurement` or None (online only). Options override
+    None; ``pol`` a :class:`~optinav.attitude.PolarizationMeasurement` or None. Options override
     :data:`IFRAME_DEFAULTS`."""
+    from optinav.attitude.measurement import pol_inputs
+
     opts = dict(IFRAME_DEFAULTS)
     opts.update(options)
     par = _params(frame, opts)
     m = np.zeros((0, 3)) if mag is None else np.ascontiguousarray(mag, dtype=float)
-    if pol is not None:
-        if offline:
-            raise offline_pol_refused()
-        r = _run_pol(_new_state(opts, q0), par, gyr, acc, m, dts, pol, frame)
-        r.mag_used = None if mag is None else r.mag_used
-        return r
+    n = gyr.shape[0]
+    pin = None if pol is None else pol_inputs(pol, n, frame, "the IMU")
     if not offline:
-        r = _run(_new_state(opts, q0), par, gyr, acc, m, dts)
+        r = _pass(_new_state(opts, q0), par, gyr, acc, m, dts, pin)
         r.mag_used = None if mag is None else r.mag_used
         return r
     # the passes estimate the attitude at the sample times; the latency is applied once, to the smoothed result
     lat = par[_k.P_LATENCY]
     par[_k.P_LATENCY] = 0.0
-    fwd = _run(_new_state(opts, q0), par, gyr, acc, m, dts)
+    code = np.empty(n, np.int8)
+    fwd = _pass(_new_state(opts, q0), par, gyr, acc, m, dts, pin, code)
     # the reversed recording sees the gyro negated, so its bias is −b: start the backward pass from the forward
     # end state with the bias negated, and negate it back; the backward bias at t has seen the whole recording
-    # (the forward pass's end state and the samples from t on), the forward one only the samples before t
+    # (the forward pass's end state and the samples from t on), the forward one only the samples before t. The
+    # polarization's samples go backward too, from the forward end's heading
     st = reversed_state(fwd.state)
-    bwd = _run(st, par, *_reverse(gyr, acc, m, dts))
+    bwd = _pass(st, par, *_reverse(gyr, acc, m, dts), None if pin is None else reversed_pol(pin))
     bias = -bwd.gyr_bias[::-1]
-    h = np.broadcast_to(dts, (gyr.shape[0],))
+    h = np.broadcast_to(dts, (n,))
     t = np.cumsum(h)
-    share = backward_share(t, t[-1], h[-1], opts["tau_acc"])
+    t0 = 0.0 if pin is None else first_pol_time(t, fwd.pol_used)
+    share = backward_share(t, t[-1], h[-1], opts["tau_acc"], t0)
     q = _fuse(fwd.q_b_n, bwd.q_b_n[::-1], share)
-    qg = np.empty((gyr.shape[0], 4))
+    qg = np.empty((n, 4))
     # started at the first attitude, not the identity: q ⊗ q_g* then stays near the identity and its twist about
     # up (gyro_heading) is defined whatever the mounting (an upside-down body made it a 180° tilt, undefined)
     _k.strapdown(gyr, np.ascontiguousarray(bias), dts, qg, q[0].copy())
     q = _zero_phase_tilt(q, qg, acc, dts, frame, opts["tau_acc"])
     used = measured_used(fwd) & measured_used(bwd)[::-1]
-    if not m.shape[0] and refinable(acc):
+    held = pin is not None and bool(fwd.pol_used.any() or bwd.pol_used.any())  # polarization holds the heading
+    if not m.shape[0] and not held and refinable(acc):
         # 6D: the heading the gyro carries with each pass's bias where that pass has run longer
         _k.strapdown(gyr, blended_bias(fwd.gyr_bias, bias, share), dts, qg, q[0].copy())
         psi = gyro_heading(q, qg, frame)
         q = heading_turned(q, psi - psi[0], frame)  # from the first attitude's heading (q_g[0] has turned once)
-    if m.shape[0] and opts["tau_mag_smooth"] > 0.0 and used.any():
+    # with polarization the heading is the fused passes' (each holds it to the AoP): smoothing the gyro-carried
+    # heading's offset to the AoP's, as the field's, ran at 0.45° on BROAD's nine with synthesized AoP against
+    # 0.37° online and 0.31° fused
+    if m.shape[0] and not held and opts["tau_mag_smooth"] > 0.0 and used.any():
         tau = opts["tau_mag_smooth"]
         psi = gyro_heading(q, qg, frame)
         d = field_azimuth(q, m, frame, opts["declination"]) - psi  # in the attitude whose heading the gyro carries
@@ -400,7 +441,14 @@ def run_iframe(
         from optinav.core.rotations import quat_from_rotvec, quat_multiply
 
         q = quat_multiply(q, quat_from_rotvec((gyr - bias) * lat))
-    return FilterRun(q, fwd.rest | bwd.rest[::-1], fwd.acc_used, None if mag is None else used, bias, fwd.state)
+    pol_used = skipped = None
+    if pin is not None:
+        code = either_pass(code, bwd.pol_used[::-1])
+        pol_used, skipped = code == _k.POL_USED, pol_skipped(pin[5], code)
+    return FilterRun(
+        q, fwd.rest | bwd.rest[::-1], fwd.acc_used, None if mag is None else used, bias, fwd.state,
+        pol_used=pol_used, pol_skipped=skipped,
+    )  # fmt: skip
 
 
 def measured_used(r: FilterRun) -> np.ndarray:
@@ -822,7 +870,10 @@ class AttitudeFilter(StreamGaps):
         if pol is None:
             r = _run(self._state, self._par, g, a, rows, d, restart)
         else:
-            r = _run_pol(self._state, self._par, g, a, rows, d, pol, self.frame, restart)
+            from optinav.attitude.measurement import pol_inputs
+
+            pin = pol_inputs(pol, g.shape[0], self.frame, "the IMU")
+            r = _run_pol(self._state, self._par, g, a, rows, d, pin, restart)
         if pol is not None:
             self._pol_skipped = self._pol_skipped or {}
             for k, v in r.pol_skipped.items():

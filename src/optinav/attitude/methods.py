@@ -150,20 +150,12 @@ def _options(method: str, options: dict) -> dict:
     return opts
 
 
-def _method(method, pol, mag: bool = False) -> str:
-    """The estimator's name for ``method`` (None: the default, iframe; mekf with ``pol`` alone; iframe, the one
-    that takes both, with ``pol`` and a magnetometer ``mag``)."""
+def _method(method, pol, mag: bool = False, offline: bool = False) -> str:
+    """The estimator's name for ``method`` (None: the default, iframe; mekf with ``pol`` alone online; iframe, the
+    one that takes both and the one with an offline mode, with ``pol`` and a magnetometer ``mag`` or ``offline``)."""
     if method is None:
-        return "iframe" if pol is None or mag else "mekf"
+        return "iframe" if pol is None or mag or offline else "mekf"
     return str(method).lower()
-
-
-def offline_pol_refused() -> OptinavError:
-    """The refusal of polarization offline (its backward pass and heading smoother take the magnetometer only)."""
-    return OptinavError(
-        "--offline takes no polarization yet (the offline heading is smoothed from the magnetometer only)",
-        "drop --offline (offline=False) to use the polarization online",
-    )
 
 
 def declination_without_mag() -> OptinavError:

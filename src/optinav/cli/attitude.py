@@ -60,8 +60,8 @@ def register(sub) -> None:
             (default: accelerometer filtered in an almost-inertial frame, rest detection, gyro bias, optional
             magnetometer with --mag, --offline smoothing; after VQF, Laidig & Seel 2023), the quasi-Newton
             filter of Jin et al. 2021 (qn), gradient descent (gd, Madgwick), conjugate gradient (cg) or a
-            multiplicative EKF with gyro bias (mekf; the default with --pol-columns alone; iframe takes
-            --pol-columns too, and is the default with --mag and --pol-columns together). gd/cg/qn/mekf run after
+            multiplicative EKF with gyro bias (mekf; the default with --pol-columns alone online; iframe takes
+            --pol-columns too, and is the default with --mag or --offline). gd/cg/qn/mekf run after
             iframe's input stage unless --no-input-stage (then exactly as published). Without polarization or
             magnetometer the roll and pitch are observed and the heading follows the gyro. With --pol-columns the file's angle of
             polarization (a zenith-viewing sensor, reference axis forward; see docs/methods/attitude.md)
@@ -282,11 +282,12 @@ def _checked(args):
     from optinav.core.rotations import frame_name, quat_from_euler
 
     options = parse_key_values(args.option)
-    # the magnetometer as AttitudeOptions.uses_mag takes it: with polarization it makes iframe the default
+    # the magnetometer as AttitudeOptions.uses_mag takes it: with polarization it (or --offline) makes iframe the default
     method = _method(
         args.method,
         True if args.pol_columns else None,
         bool(args.mag or args.mag_columns or getattr(args, "mag_path", None)),
+        args.offline,
     )
     check_options(method, options)
     from optinav.attitude.recording import CSV_HEADER
