@@ -3128,26 +3128,26 @@ def offset_heading(b: np.ndarray, bins, acc_sums, field_sums, counts) -> float:
     return float(np.sqrt(np.mean(turn**2))) if turn.size else float("nan")
 
 
-def offset_tolerated(b: np.ndarray, mag: np.ndarray, turns, tilt) -> bool:
+def offset_tolerated(turn: float, mag: np.ndarray, turns, tilt) -> bool:
     """Whether an online estimate uses the field as measured, fitting no offset from past samples, beside the offset
-    ``b`` (3,, the field's unit) that the whole recording's fit (:func:`check_mag`) shows: where it turns the heading
-    by under :data:`MAG_UNSEEN_HEADING` (:func:`offset_heading` on ``tilt``, :func:`mag_sums` of the log), as an
-    offset no fit sees is tolerated; and so does the sphere fitted along all three axes to the rows ``mag`` (n, 3)
-    and the offset the turning steps show (:func:`moving_offset` of ``turns``, :func:`field_rate_sums` and the bin's
-    s): ``b`` has no part along an axis the body turned little about, and a residual of 4.5 µT beside 30 µT fitted
-    so (2.1° of heading) turned the heading by 7.7° (8.1° RMSE with exit 0). The fit from past samples never passes
-    its gates where the motion spreads the norm too little: simulated residuals of 2-8 µT beside 28-57 µT that the
-    raw field ran at 0.9-2.6° were refused, or, the fit passing late, ran at 54-126° with exit 0 (the field then
-    unused until it passed, the heading the gyro's from the start; since, used as measured there where
-    :func:`measured_before_fit` says so)."""
+    that the whole recording's fit (:func:`check_mag`) shows, which turns the heading by ``turn`` (rad,
+    :func:`offset_heading` on ``tilt``, :func:`mag_sums` of the log): where that is under
+    :data:`MAG_UNSEEN_HEADING`, as an offset no fit sees is tolerated; and so does the sphere fitted along all three
+    axes to the rows ``mag`` (n, 3) and the offset the turning steps show (:func:`moving_offset` of ``turns``,
+    :func:`field_rate_sums` and the bin's s): the whole recording's offset has no part along an axis the body turned
+    little about, and a residual of 4.5 µT beside 30 µT fitted so (2.1° of heading) turned the heading by 7.7° (8.1°
+    RMSE with exit 0). The fit from past samples never passes its gates where the motion spreads the norm too
+    little: simulated residuals of 2-8 µT beside 28-57 µT that the raw field ran at 0.9-2.6° were refused, or, the
+    fit passing late, ran at 54-126° with exit 0 (the field then unused until it passed, the heading the gyro's from
+    the start; since, used as measured there where :func:`measured_before_fit` says so)."""
     m = mag[np.all(np.isfinite(mag), axis=1)]
-    seen = [np.asarray(b, float)]
+    seen = []
     if m.shape[0] >= 100:
         seen.append(_sphere_fit(m, np.eye(3))[0])
     moving = moving_offset(*turns)
     if moving is not None:
         seen.append(moving[2])
-    return all(offset_heading(v, *tilt[:4]) < MAG_UNSEEN_HEADING for v in seen)
+    return bool(turn < MAG_UNSEEN_HEADING) and all(offset_heading(v, *tilt[:4]) < MAG_UNSEEN_HEADING for v in seen)
 
 
 #: rad, the RMS heading turn (:func:`offset_heading`) under which an online estimate uses the field as measured
@@ -3155,14 +3155,14 @@ def offset_tolerated(b: np.ndarray, mag: np.ndarray, turns, tilt) -> bool:
 MAG_MEASURED_HEADING = np.radians(20.0)
 
 
-def measured_before_fit(b: np.ndarray, tilt) -> bool:
-    """Whether an online estimate that fits the offset ``b`` (3,, the field's unit; the whole recording's fit) from
-    past samples uses the field as measured until that fit passes: where ``b`` turns its heading by under
-    :data:`MAG_MEASURED_HEADING` (:func:`offset_heading` on ``tilt``, :func:`mag_sums` of the log); else the field
-    is unused there and the heading the gyro's from an arbitrary start. Residuals of 2-8 µT beside 28-57 µT on
-    simulated logs whose fit passed 28-79 % into them ran at 39-123° heading RMSE with exit 0 (the start's heading
-    arbitrary), now 1.8-11.0°; BROAD 02 with +30 µT on x (offset_heading 58°) runs unused before its fit."""
-    return bool(offset_heading(b, *tilt[:4]) < MAG_MEASURED_HEADING)
+def measured_before_fit(turn: float) -> bool:
+    """Whether an online estimate that fits an offset from past samples uses the field as measured until that fit
+    passes: where the whole recording's offset turns its heading by ``turn`` (rad, :func:`offset_heading`) under
+    :data:`MAG_MEASURED_HEADING`; else the field is unused there and the heading the gyro's from an arbitrary start.
+    Residuals of 2-8 µT beside 28-57 µT on simulated logs whose fit passed 28-79 % into them ran at 39-123° heading
+    RMSE with exit 0 (the start's heading arbitrary), now 1.8-11.0°; BROAD 02 with +30 µT on x (offset_heading 58°)
+    runs unused before its fit."""
+    return bool(turn < MAG_MEASURED_HEADING)
 
 
 def offset_unseen_error(

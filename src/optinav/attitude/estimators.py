@@ -60,6 +60,7 @@ from optinav.attitude.checks import (
     zero_rows_missing,
     bin_fields,
     offset_change_error,
+    offset_heading,
     offset_held_error,
     offset_tolerated,
     offset_unseen_error,
@@ -756,16 +757,19 @@ def estimate(
         if mag is not None:
             tilt = functools.cache(lambda: mag_sums(acc, mag))  # the whole log's tilt-bin sums, once if at all
             checked = mag_hard_iron  # the offset the field checks take off: fitted online, the whole recording's
+            turn = None  # rad, the heading turn it gives online (offset_heading): how the field is used before a fit
             if online_fit:  # an uncalibrated magnetometer said so: fitted from past samples below
                 got = hard_iron(mag[:: mag_fit_stride(mag.shape[0])])
                 checked = None if got is None else got[0]
+                turn = None if got is None else offset_heading(checked, *tilt()[:4])
             elif mag_hard_iron is None:
                 turned = body_turned(*turns)
                 strided = mag[:: mag_fit_stride(mag.shape[0])]
                 b = check_mag(strided, offline, online=method == "iframe", turned=turned)
+                turn = None if offline or b is None else offset_heading(b, *tilt()[:4])
                 # online, an offset that turns the heading little is used as measured from the start (the checks
                 # take it off, as they take off the one fitted from past samples)
-                tolerated = not offline and b is not None and offset_tolerated(b, strided, turns, tilt())
+                tolerated = turn is not None and offset_tolerated(turn, strided, turns, tilt())
                 online_fit = b is not None and not offline and not tolerated
                 if b is None:  # an offset the recording does not turn every way about
                     b = check_turning_offset(*turns, offline)
@@ -792,7 +796,7 @@ def estimate(
             check_mag_axes(acc, mag if checked is None else mag - checked, step, gyr)
             if err is not None:
                 raise err
-            measured = online_fit and checked is not None and measured_before_fit(checked, tilt())
+            measured = online_fit and turn is not None and measured_before_fit(turn)
     if mag_hard_iron is not None:
         mag = mag - mag_hard_iron
     if gaps.size and not allow_gaps:

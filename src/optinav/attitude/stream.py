@@ -122,15 +122,17 @@ class StreamChecks:
             return None
         mag = np.concatenate(self._mag)
         b = _c.check_mag(mag, offline=True, turned=self._turned())
-        if online and b is not None and self._scale_sums and self._mag_sums:
-            self.hard_iron_tolerated = _c.offset_tolerated(b, mag, self._turn_sums(), self._tilt_sums())
+        if online and b is not None and self._mag_sums:  # as estimate() decides how the field is used online
+            tilt = self._tilt_sums()
+            turn = _c.offset_heading(b, *tilt[:4])
+            if self._scale_sums:
+                self.hard_iron_tolerated = _c.offset_tolerated(turn, mag, self._turn_sums(), tilt)
+            self.hard_iron_measured = _c.measured_before_fit(turn)
         if b is None and self._scale_sums:  # online refused: the fit from past samples needs every axis turned
             b = _c.check_turning_offset(*self._turn_sums(), offline=not online)
         if b is None and not online and self._scale_sums and self._mag_sums:  # as estimate() offline
             b = _c.small_offset(*self._turn_sums(), self._tilt_sums)
         self.fitted_hard_iron = b
-        if online and b is not None and self._mag_sums:
-            self.hard_iron_measured = _c.measured_before_fit(b, self._tilt_sums())
         return b
 
     #: the offset :meth:`hard_iron` fitted (None: none, or not asked): the later checks judge the field less it
