@@ -2164,22 +2164,24 @@ def _field_and_rate(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts):
     return both, m, G / np.maximum(N, 1.0)[:, None]
 
 
-def _turns(u: np.ndarray, w: np.ndarray, pair: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+def _turns(u: np.ndarray, w: np.ndarray, pair: np.ndarray, h: float, *more: np.ndarray) -> tuple[np.ndarray, ...]:
     """Per neighbouring bins (``pair``: the k − 1 pairs kept) the unit field's step Δu and the step the gyro
     predicts, −θ × ū, both (j, 3), rows with a NaN left out; ``w`` (k, 6) the bins' mean ω and p·ω (rad/s,
-    :func:`_field_and_rate`; (k, 3) the mean ω alone: θ = h × the two bins' mean ω), ``h`` s a bin. The step between two bins' means weighs each instant's rotation by
-    the share of row pairs across it, a triangle rising over the first bin and falling over the second: θ =
-    h (mean p·ω of the first + mean ω − mean p·ω of the second). Taken as the two bins' mean rate times h, a rate
-    that swings within the bins left BROAD 16's fast translation (20 s at half its rate) with 350 % of the
-    field's turning unexplained and refused as a magnetometer in other axes; 39 % so."""
+    :func:`_field_and_rate`; (k, 3) the mean ω alone: θ = h × the two bins' mean ω), ``h`` s a bin; ``more``:
+    further rates in ``w``'s layout, the step each predicts returned after (rows kept where all are finite). The
+    step between two bins' means weighs each instant's rotation by the share of row pairs across it, a triangle
+    rising over the first bin and falling over the second: θ = h (mean p·ω of the first + mean ω − mean p·ω of the
+    second). Taken as the two bins' mean rate times h, a rate that swings within the bins left BROAD 16's fast
+    translation (20 s at half its rate) with 350 % of the field's turning unexplained and refused as a magnetometer
+    in other axes; 39 % so."""
     du = (u[1:] - u[:-1])[pair]
-    if w.shape[1] == 6:
-        theta = (w[:-1, 3:] + w[1:, :3] - w[1:, 3:]) * h
-    else:
-        theta = 0.5 * (w[1:] + w[:-1]) * h
-    pred = -np.cross(theta, 0.5 * (u[1:] + u[:-1]))[pair]
-    ok = np.all(np.isfinite(du), axis=1) & np.all(np.isfinite(pred), axis=1)
-    return du[ok], pred[ok]
+    mid = 0.5 * (u[1:] + u[:-1])
+    preds = []
+    for v in (w, *more):
+        theta = (v[:-1, 3:] + v[1:, :3] - v[1:, 3:]) * h if v.shape[1] == 6 else 0.5 * (v[1:] + v[:-1]) * h
+        preds.append(-np.cross(theta, mid)[pair])
+    ok = np.all(np.isfinite(np.hstack([du, *preds])), axis=1)
+    return du[ok], *(p[ok] for p in preds)
 
 
 #: the largest turn (rad) between neighbouring TILT_BIN bins taken as the gyro predicts it (−ω̄ × ū h): the mean
@@ -3557,10 +3559,7 @@ def field_tells_turn(bins: np.ndarray, sums: np.ndarray, h: float, reading: np.n
         return None
     u, w, pair = quiet
     r = np.asarray(reading, dtype=float)
-    du, less = _turns(u, w - r, pair, h)
-    _, alone = _turns(u, np.broadcast_to(r, w.shape), pair, h)
-    if du.shape[0] != alone.shape[0]:
-        return None
+    du, less, alone = _turns(u, w - r, pair, h, np.broadcast_to(r, w.shape))
     pp = float(np.sum(alone * alone))
     if not pp > 0.0:
         return None
