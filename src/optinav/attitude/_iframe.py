@@ -1501,11 +1501,20 @@ def hard_iron_online(fs, mx, my, mz, h, w):
 
 
 @numba.njit(**_NJ)
+def first_fitted_row(fs, row0):
+    """The row, counted from the fit state ``fs``'s row ``row0`` (a chunk's first, or a sample's own), from which
+    the online fit's offset is first subtracted (the filter's magnetic part restarts there: :func:`mag_restart`);
+    -1 where that is before ``row0`` or the fit has not passed."""
+    k = fs[HF_FROM] - row0
+    return int(k) if fs[HF_OK] != 0.0 and k >= 0 else -1
+
+
+@numba.njit(**_NJ)
 def fitted_sample(fs, st, mx, my, mz, h, w):
     """:func:`hard_iron_online` for the filter state ``st``: the field to step it with, its magnetic part restarted
     (:func:`mag_restart`) at the sample from which the fit's offset is subtracted."""
     m = hard_iron_online(fs, mx, my, mz, h, w)
-    if fs[HF_OK] != 0.0 and fs[HF_FROM] == fs[HF_ROWS] - 1.0:
+    if first_fitted_row(fs, fs[HF_ROWS] - 1.0) == 0:
         mag_restart(st)
     return m
 

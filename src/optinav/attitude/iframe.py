@@ -275,22 +275,14 @@ def hard_iron_online(mag, dts, fit=None, gyr=None) -> tuple[np.ndarray, np.ndarr
     :data:`~optinav.attitude.checks.STILL_RATE` (None: every row), solved every 0.25 s of the steps ``dts`` (s, 1
     or N), used once it passes the same gates with every body axis turned about and the corrected norm as steady
     as a calibrated one, and restarted from the recent rows when they show another offset; before, NaN or the rows
-    as measured (:func:`online_fit_state`; :func:`first_fitted_row`), NaN while another offset explains the recent
-    rows but is not fitted yet: :func:`online_fit_held`); and the fit's state ``fit`` (:func:`online_fit_state`
-    when None, else continued in place)."""
+    as measured (:func:`online_fit_state`; :func:`_iframe.first_fitted_row`), NaN while another offset explains the
+    recent rows but is not fitted yet: :func:`online_fit_held`); and the fit's state ``fit``
+    (:func:`online_fit_state` when None, else continued in place)."""
     fs = online_fit_state() if fit is None else fit
     out = np.empty(mag.shape)
     w = np.zeros((0, 3)) if gyr is None else np.ascontiguousarray(gyr, dtype=float)
     _k.hard_iron_online_run(fs, np.ascontiguousarray(mag, dtype=float), np.ascontiguousarray(dts, dtype=float), w, out)
     return out, fs
-
-
-def first_fitted_row(fs, row0) -> int:
-    """The row of a chunk whose fit state ``fs`` stood at ``row0`` rows before it from which the online fit's
-    offset is first subtracted (the filter's magnetic part restarts there: :func:`_iframe.mag_restart`); -1 where
-    that is not in the chunk."""
-    k = fs[_k.HF_FROM] - row0
-    return int(k) if fs[_k.HF_OK] and k >= 0 else -1
 
 
 def online_fit_result(fs) -> tuple[np.ndarray | None, int | None]:
@@ -865,7 +857,7 @@ class AttitudeFilter(StreamGaps):
         elif m is not None and self._fit is not None:
             row0 = self._fit[_k.HF_ROWS]
             m, _ = hard_iron_online(m, d, self._fit, g)
-            restart = first_fitted_row(self._fit, row0)
+            restart = _k.first_fitted_row(self._fit, row0)
         rows = np.zeros((0, 3)) if m is None else m
         if pol is None:
             r = _run(self._state, self._par, g, a, rows, d, restart)
