@@ -3167,6 +3167,17 @@ def measured_before_fit(turn: float) -> bool:
     return bool(turn < MAG_MEASURED_HEADING)
 
 
+def _offset_pulls_heading(fields, h: float, k0: int, k1: int, b: np.ndarray, field: float, offline: bool, tilt) -> bool:
+    """Whether the offset ``b`` (3,, the field's unit) that the field turns about from bin ``k0`` to bin ``k1``
+    (``fields`` of :func:`bin_fields`, ``h`` s each; ``field`` the field less it) and that no fit takes out turns the
+    estimate's heading: the estimate takes the field with it for the Earth's at its start (``offline`` at its end
+    too: :func:`_carried`), and b turns the heading by :data:`MAG_UNSEEN_HEADING` or more (:func:`offset_heading` on
+    ``tilt()``, :func:`mag_sums` of the log; ``tilt`` None: not judged)."""
+    if not _carried(fields, h, k0, b, field, False) or (offline and not _carried(fields, h, k1 - 1, b, field, True)):
+        return False
+    return tilt is None or bool(offset_heading(b, *tilt()[:4]) >= MAG_UNSEEN_HEADING)
+
+
 def offset_unseen_error(
     pieces: list[tuple[int, np.ndarray | None, float]],
     bins: np.ndarray,
@@ -3221,9 +3232,7 @@ def offset_unseen_error(
     if not _norm_kept(fields[1][(fields[0] >= k0) & (fields[0] < k1)], b):  # a fit to a field lagging in fast
         # rotation (BROAD 07 from 90 s: a 10-s window's 63 µT beside 50 µT)
         return None
-    if not _carried(fields, h, k0, b, field, False) or (offline and not _carried(fields, h, k1 - 1, b, field, True)):
-        return None
-    if tilt is not None and not offset_heading(b, *tilt()[:4]) >= MAG_UNSEEN_HEADING:
+    if not _offset_pulls_heading(fields, h, k0, k1, b, field, offline, tilt):
         return None
     if pieces or moving is not None:
         share = "" if explained is None else f" (that offset explains {explained:.0%} of what the gyro leaves of it)"
@@ -3248,11 +3257,10 @@ def small_offset(bins: np.ndarray, sums: np.ndarray, h: float, tilt) -> np.ndarr
     """Offline, the offset b (3,, the field's unit) for the estimate to subtract where the steps in which the body
     turns show it (:func:`moving_offset`) and no fit of the whole log does: within :data:`MAG_OFFSET` of the field,
     under the gates of :func:`hard_iron`, :func:`turning_offset` and the windows of :func:`offset_pieces` (which call
-    it about zero, or judge none), there at the start and the end (:func:`_carried`) and turning the heading by
-    :data:`MAG_UNSEEN_HEADING` or more (:func:`offset_heading` on ``tilt``, a callable giving :func:`mag_sums` of the
-    log): what :func:`offset_unseen_error` refuses online. A residual of 2-6 µT beside 35-55 µT on simulated logs
-    that turn for a few seconds: refused at 1.6-7.7° heading RMSE, 0.1-1.2° with the offset subtracted. None
-    otherwise. ``bins``, ``sums``, ``h`` as :func:`moving_offset` takes them."""
+    it about zero, or judge none), and turning the heading (:func:`_offset_pulls_heading` offline; ``tilt`` a
+    callable giving :func:`mag_sums` of the log): what :func:`offset_unseen_error` refuses online. A residual of
+    2-6 µT beside 35-55 µT on simulated logs that turn for a few seconds: refused at 1.6-7.7° heading RMSE, 0.1-1.2°
+    with the offset subtracted. None otherwise. ``bins``, ``sums``, ``h`` as :func:`moving_offset` takes them."""
     pieces = offset_pieces(bins, sums, h)
     if any(p is not None for _, p, _ in pieces):
         return None
@@ -3264,10 +3272,7 @@ def small_offset(bins: np.ndarray, sums: np.ndarray, h: float, tilt) -> np.ndarr
         field = float(np.median([f for _, _, f in pieces]))
     if float(np.linalg.norm(b)) > MAG_OFFSET * field:
         return None
-    fields = bin_fields(bins, sums)
-    if not (_carried(fields, h, k0, b, field, False) and _carried(fields, h, k1 - 1, b, field, True)):
-        return None
-    return b if offset_heading(b, *tilt()[:4]) >= MAG_UNSEEN_HEADING else None
+    return b if _offset_pulls_heading(bin_fields(bins, sums), h, k0, k1, b, field, True, tilt) else None
 
 
 def _rest_step(fields, h: float, field: float, b: np.ndarray):
