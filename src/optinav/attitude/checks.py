@@ -2709,6 +2709,11 @@ MAG_PIECE_TURN = 2.0
 MAG_PIECE_APART = 0.25
 
 
+def _pieces_field(pieces) -> float:
+    """The median norm of the field less its offset over the windows of :func:`offset_pieces` (the field's unit)."""
+    return float(np.median([f for _, _, f in pieces]))
+
+
 def offset_pieces(bins: np.ndarray, sums: np.ndarray, h: float) -> list[tuple[int, np.ndarray | None, float]]:
     """The offset the field turns about in each window of :data:`MAG_PIECE_S` s that turns the body by
     :data:`MAG_PIECE_TURN` or more: (its first bin number, b) with b (3,, the field's unit) where it explains
@@ -2887,7 +2892,7 @@ def offset_change_error(
     that turns the field there by under :data:`MAG_END_TURN` (:func:`end_turn`) is not refused."""
     if not any(b is not None for _, b, _ in pieces):
         return None
-    field = float(np.median([f for _, _, f in pieces]))
+    field = _pieces_field(pieces)
     zero = np.zeros(3) if offset is None else np.asarray(offset, float)
     about = [(k, zero if b is None else zero + b) for k, b, _ in pieces]  # the point each window turns about
 
@@ -3207,14 +3212,14 @@ def offset_unseen_error(
         # windows about zero, the usual case, tell no offset within MAG_OFFSET of the field from none (their gate):
         # they do not speak against one that small the turning steps show (2.2 µT beside 30 µT, dip -68°: 4.7-10.6°
         # heading RMSE with exit 0)
-        field = float(np.median([f for _, _, f in pieces]))
+        field = _pieces_field(pieces)
         if moving is None or np.linalg.norm(moving[2]) > MAG_OFFSET * field:
             return None
         pieces = []
     sphere = sphere_offset(mag) if moving is None and not pieces else None
     fields = bin_fields(bins, sums)
     if pieces:
-        field = float(np.median([f for _, _, f in pieces]))
+        field = _pieces_field(pieces)
         if moving is not None and np.linalg.norm(moving[2] - pieces[0][1]) <= MAG_PIECE_APART * field:
             k0, k1, b, _, explained = moving
         else:
@@ -3269,7 +3274,7 @@ def small_offset(bins: np.ndarray, sums: np.ndarray, h: float, tilt) -> np.ndarr
         return None
     k0, k1, b, field, _ = moving
     if pieces:
-        field = float(np.median([f for _, _, f in pieces]))
+        field = _pieces_field(pieces)
     if float(np.linalg.norm(b)) > MAG_OFFSET * field:
         return None
     return b if _offset_pulls_heading(bin_fields(bins, sums), h, k0, k1, b, field, True, tilt) else None
@@ -3316,7 +3321,7 @@ def offset_held_error(
     if offset is None or not pieces:
         return None
     b = np.asarray(offset, float)
-    field = float(np.median([f for _, _, f in pieces]))
+    field = _pieces_field(pieces)
 
     subtracted = f"the offset [{_vec(b)}] subtracted (fitted over the whole recording or given)"
 
