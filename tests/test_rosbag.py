@@ -247,8 +247,8 @@ def _spy_decode(monkeypatch, name="ros1_decode"):
 
 def _spy_threads(monkeypatch, name, slow="main"):
     """Record (thread is this one, the kernel's chunks argument) for every call of the compiled kernel
-    ``_bagkernels.<name>``; the calls of the ``slow`` thread ("main", "helper") wait 2 ms first, so that the other
-    takes batches too (or most of them)."""
+    ``_bagkernels.<name>``; the calls of the ``slow`` thread ("main", "helper") wait 20 ms first, so that the other
+    takes batches too (or most of them; with 2 ms a busy machine left the other descheduled: 1 batch of 9)."""
     import threading
     import time
 
@@ -260,7 +260,7 @@ def _spy_threads(monkeypatch, name, slow="main"):
         mine = threading.get_ident() == me
         seen.append((mine, tuple(np.asarray(args[1]).tolist())))
         if mine == (slow == "main"):
-            time.sleep(0.002)
+            time.sleep(0.02)
         return real(*args)
 
     monkeypatch.setattr(kern, name, spy)
