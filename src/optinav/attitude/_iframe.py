@@ -1209,12 +1209,15 @@ def azimuth_scatter(d, out, used, acc):
 # at, 1 while a younger fit gathers blocks beside one that turned every way and never passed; the last block; the
 # time (s) the field has been held unused, and 1 while it is (the open candidate shows another offset); 1 where the
 # field is given as measured before the fit passes (NaN otherwise)
-HF_C, HF_SET, HF_N, HF_M, HF_MM, HF_Y, HF_YM, HF_YY = 0, 3, 4, 5, 8, 14, 15, 18
+HF_C, HF_SET, HF_M, HF_MM, HF_Y, HF_YM, HF_YY = 0, 3, 5, 8, 14, 15, 18
 HF_T, HF_B, HF_OK, HF_ROWS, HF_FROM = 19, 20, 23, 24, 25
 HF_MOM = 15
-HF_BLK, HF_CAND, HF_TMP = 26, 41, 56
+# the moments blocks' offsets, passed to the fit's helpers as k: as plain ints numba typed each as a literal of its
+# own and compiled the helper, and every helper calling it, once per block (np.int64 is typed int64)
+HF_N, HF_BLK, HF_CAND, HF_TMP = np.int64(4), np.int64(26), np.int64(41), np.int64(56)
 HF_BLK_T, HF_OPEN, HF_RESTARTS, HF_RESTART_ROW, HF_OPEN_ROW, HF_YOUNG = 71, 72, 73, 74, 75, 76
-HF_LAST, HF_OPEN_T, HF_HELD, HF_MEASURED = 77, 92, 93, 94
+HF_OPEN_T, HF_HELD, HF_MEASURED = 92, 93, 94
+HF_LAST = np.int64(77)  # a moments block too
 HF_SIZE = 95
 #: s between two solves of the online fit (a 3×3 eigenvalue problem: out of the per-sample loop)
 HF_EVERY = 0.25
@@ -1269,6 +1272,51 @@ def _hf_cov(fs, k):
 
 
 @numba.njit(**_NJ)
+def _eig3(C):
+    """Eigenvalues (3,) ascending and unit eigenvectors (3, 3, columns) of the symmetric 3×3 ``C`` by cyclic
+    Jacobi rotations, to rounding (numba's LAPACK wrappers, and its argsort and fancy indexing, cost seconds of
+    compiling in every kernel holding them)."""
+    A = np.empty((3, 3))
+    V = np.zeros((3, 3))
+    for i in range(3):
+        V[i, i] = 1.0
+        for j in range(3):
+            A[i, j] = C[i, j]
+    for _ in range(50):
+        off = A[0, 1] * A[0, 1] + A[0, 2] * A[0, 2] + A[1, 2] * A[1, 2]
+        if not off > 1e-36 * (A[0, 0] * A[0, 0] + A[1, 1] * A[1, 1] + A[2, 2] * A[2, 2]):
+            break
+        for r in range(3):
+            p, q = (0, 1) if r == 0 else ((0, 2) if r == 1 else (1, 2))
+            apq = A[p, q]
+            if apq == 0.0:
+                continue
+            theta = (A[q, q] - A[p, p]) / (2.0 * apq)
+            t = (1.0 if theta >= 0.0 else -1.0) / (abs(theta) + math.sqrt(theta * theta + 1.0))
+            c = 1.0 / math.sqrt(t * t + 1.0)
+            s = t * c
+            for k in range(3):
+                akp, akq = A[k, p], A[k, q]
+                A[k, p], A[k, q] = c * akp - s * akq, s * akp + c * akq
+            for k in range(3):
+                apk, aqk = A[p, k], A[q, k]
+                A[p, k], A[q, k] = c * apk - s * aqk, s * apk + c * aqk
+            for k in range(3):
+                vkp, vkq = V[k, p], V[k, q]
+                V[k, p], V[k, q] = c * vkp - s * vkq, s * vkp + c * vkq
+    w = np.empty(3)
+    for i in range(3):
+        w[i] = A[i, i]
+    for i in range(2):  # ascending, the vectors with them
+        for j in range(2 - i):
+            if w[j + 1] < w[j]:
+                w[j], w[j + 1] = w[j + 1], w[j]
+                for k in range(3):
+                    V[k, j], V[k, j + 1] = V[k, j + 1], V[k, j]
+    return w, V
+
+
+@numba.njit(**_NJ)
 def _hf_fit(fs, k, out):
     """The sphere fit of the block at ``fs[k:]`` into ``out`` (3) when its samples turned the field about every
     body axis by MAG_SEEN_SPREAD of the fitted radius r, not of |m|, which the offset inflates (BROAD 02 with (100,
@@ -1281,15 +1329,19 @@ def _hf_fit(fs, k, out):
     mz0, _ = _hf_stats(fs, k, 0.0, 0.0, 0.0)
     if not mz0 > 0.0:
         return math.inf
-    C = _hf_cov(fs, k)
-    low = np.linalg.eigvalsh(C)[0]
+    w, V = _eig3(_hf_cov(fs, k))
+    low = w[0]
     if not low > 1e-12 * mz0:  # not turned at all about one axis: no fit
         return math.inf
     m0, m1, m2 = fs[k + 1] / n, fs[k + 2] / n, fs[k + 3] / n
     yb = fs[k + 10] / n
     cy = np.array([fs[k + 11] / n - m0 * yb, fs[k + 12] / n - m1 * yb, fs[k + 13] / n - m2 * yb])
     # 2 (m − m̄)·(b − c) = y − ȳ in the least-squares sense: C (b − c) = cov(m, y) / 2
-    d = np.linalg.solve(C, 0.5 * cy)
+    d = np.zeros(3)
+    for i in range(3):
+        c = 0.5 * (V[0, i] * cy[0] + V[1, i] * cy[1] + V[2, i] * cy[2]) / w[i]
+        for j in range(3):
+            d[j] += c * V[j, i]
     out[0], out[1], out[2] = fs[HF_C] + d[0], fs[HF_C + 1] + d[1], fs[HF_C + 2] + d[2]
     r2, _ = _hf_stats(fs, k, out[0], out[1], out[2])
     if not (r2 > 0.0 and low > (HF_SEEN_SPREAD * HF_SEEN_SPREAD) * r2):
@@ -1306,7 +1358,7 @@ def _hf_partial(fs, k, b0, b1, b2):
     if n < 100.0:
         return math.inf
     r2, _ = _hf_stats(fs, k, b0, b1, b2)
-    w, V = np.linalg.eigh(_hf_cov(fs, k))
+    w, V = _eig3(_hf_cov(fs, k))
     m0, m1, m2 = fs[k + 1] / n, fs[k + 2] / n, fs[k + 3] / n
     yb = fs[k + 10] / n
     cy = np.array([fs[k + 11] / n - m0 * yb, fs[k + 12] / n - m1 * yb, fs[k + 13] / n - m2 * yb])
@@ -1317,10 +1369,10 @@ def _hf_partial(fs, k, b0, b1, b2):
     for i in range(3):
         v = V[:, i]
         if w[i] > HF_SEEN_SPREAD * HF_SEEN_SPREAD * r2:
-            d += (0.5 * np.dot(v, cy) / w[i]) * v
+            d += (0.5 * (v[0] * cy[0] + v[1] * cy[1] + v[2] * cy[2]) / w[i]) * v
             seen += 1
         else:
-            d += np.dot(v, p) * v
+            d += (v[0] * p[0] + v[1] * p[1] + v[2] * p[2]) * v
     if seen == 0:
         return math.inf
     return _hf_spread(fs, k, fs[HF_C] + d[0], fs[HF_C + 1] + d[1], fs[HF_C + 2] + d[2])
