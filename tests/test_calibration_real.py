@@ -4,7 +4,7 @@ imucal's reference calibrations (reference/*.json, imucal 2.6.0)."""
 import json
 from pathlib import Path
 
-from csv_edit import drift_column
+from csv_edit import clip_columns, drift_column
 import numpy as np
 import pytest
 
@@ -143,6 +143,25 @@ def test_a_ferraris_rotation_section_cut_inside_the_turn_is_refused(tmp_path, ca
     _run(tmp_path, [*EXAMPLE, "--method", "ferraris", "--sections", str(path)], code=2)
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "the turn of z_rot goes on after it ends" in err and "--sections" in err
+
+
+@pytest.mark.parametrize(
+    "column, limit, stated",
+    [("gyr_z", 467.6, None), ("gyr_z", 467.6, "2000"), ("gyr_y", 429.5, None), ("gyr_x", 447.7, None)],
+)
+def test_a_turn_clipped_below_its_peak_is_refused(tmp_path, capsys, column, limit, stated):
+    """imucal's example recording with one gyro column clipped at ±limit deg/s: z at 467.6 (0.6 of its largest value, 3 and
+    4 samples of z_rot flat at it) gave K_zz 1.04 % small, 68 std, with exit 0, and so did a range stated too
+    large (--gyro-range 2000: the range alone judged the turns); y at 429.5 (one run of 3 samples) K_yy 7 std
+    small; x at 447.7 (one sample of x_rot at it, the moves between the poses clipped there too) K_xx 2.2 std. The
+    rail a turn's samples show, or the moves between the poses, is now found with or without a range."""
+    path = clip_columns(DATA / "example_ferraris_session.csv", tmp_path / "clipped.csv", (column,), limit)
+    args = [*EXAMPLE, "--method", "ferraris", "--sections", str(DATA / "example_ferraris_session_list.json")]
+    args[2] = str(path)
+    _run(tmp_path, args + (["--gyro-range", stated] if stated else []), code=2)
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "the gyroscope is at its full scale" in err and f"section {column[-1]}_rot" in err, err
+    assert "the turn was faster than its range" in err and "--gyro-range" in err, err
 
 
 def test_example_session_ferraris_std_agrees_with_the_norm_route(tmp_path):

@@ -32,7 +32,7 @@ from optinav.core.earth import gravity as normal_gravity
 from optinav.core.progress import progress_blocks, step
 from optinav.core.results import convergence, gate
 from optinav.core.units import G_STANDARD, factor
-from optinav.core.validate import as_float_array, check_positive, check_timestamps
+from optinav.core.validate import as_float_array, check_positive, check_timestamps, mask_runs
 from optinav.errors import OptinavError, SwappedAxes
 from optinav.io import iter_imu, raw_units
 from optinav.io.imu import reader_options
@@ -586,7 +586,6 @@ def calibrate(
             sat_g,
             rng=rng,
             gyr_clock=gyr_clock,
-            range_given=gyro_range is not None,
         )
     selection = {}
     step("detect static intervals")
@@ -1277,17 +1276,6 @@ def _gyro_gates(gc, gyro_unit: str) -> list[dict]:
     ]
 
 
-def flat_runs(v: np.ndarray, run: int = 5) -> list[tuple[int, int]]:
-    """Half-open ranges (i0, i1) where ``v`` (N,) reads its extreme value (max or min) in ``run`` or more
-    consecutive samples: a sensor clipped at its range (noise always moves an unclipped axis)."""
-    if v.size < run:
-        return []
-    starts = np.flatnonzero(np.r_[True, v[1:] != v[:-1]])
-    lengths = np.diff(np.r_[starts, v.size])
-    ext = (v[starts] == np.nanmax(v)) | (v[starts] == np.nanmin(v))
-    return [(int(a), int(a + n)) for a, n in zip(starts, lengths) if n >= run and ext[starts == a][0]]
-
-
 def _turn_angle(angle: float) -> float | None:
     """A turn's angle (deg) as a technician states it: the multiple of 90° within 2 % of ``angle``, else None."""
     r = 90.0 * round(angle / 90.0)
@@ -1718,28 +1706,122 @@ def _check_pose_turn_axes(pt, stated: float) -> None:
     )
 
 
-def _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, gyr_b, flat: bool = True) -> None:
+#: a Ferraris turn's samples at the gyro's extreme are a constant rate held (a turntable's, read by a gyro whose
+#: noise is below a count: flat at the log's extreme like a clipped peak), not a clip, where the turn holds it,
+#: within this share of the rate (or two of the output's quanta), over at least half of its motion (its samples
+#: above a tenth of the rate), reaching it once in each burst of motion
+PLATEAU_TOL = 0.01
+#: ... and whose rate rises to it and falls from it at a steady or settling pace: the mean step of the second half
+#: of each ramp within this factor of the first half's (a motor's straight ramps 1.00-1.02, a jerk-limited one 0.75;
+#: a smooth turn clipped at 0.2-0.7 of its peak still speeds up at the rail, 1.3-1.6: clipped at 0.5-0.6, its K_g
+#: 22-32 % small passed as a constant rate with exit 0)
+RAMP_SPEEDUP = 1.2
+#: a run of k samples at the gyro's extreme, entered or left steeply, is a clip where the turn's own moving samples
+#: repeat so seldom (a share p of their steps) that k − 1 repeats in a row, p^(k−1), have less than this chance (a
+#: logger that holds samples, like BROAD's gyro in 4-12 % of its steps, repeats at a peak too)
+HOLD_CHANCE = 1e-3
+
+
+def clipped_turn_rows(gyr, acc, names, idx, gyr_b, dt: float) -> np.ndarray:
+    """Rows (N,) of the Ferraris rotation sections (``names`` ending in _rot, half-open ``idx`` rows) where the gyro
+    reads its full scale, judged from the samples, so that a stated range too large hides none: per axis and sign,
+    the turns' samples at the log's extreme once that shows itself a rail — in a turn, a run of k ≥ 3 samples at it
+    (≥ 5 where the log reaches the value only there: a natural peak reaches its value once) entered or left within
+    the motion by a step beyond a natural peak's (> 0.5 % of the rate and 5 of the output's quanta, or flat ≥ 0.1 s
+    where the quantum is below 0.1 % of it: the steps of :func:`optinav.attitude.checks.steep_runs`), in a turn
+    whose other moving samples repeat too seldom to hold k − 1 repeats by chance (:data:`HOLD_CHANCE`); or outside
+    the turns by the attitude input check's rule (:func:`optinav.attitude.checks.saturated_extremes`: a clip on the
+    moves between the poses shows the rail a single sample of a turn reaches). A rate a turn holds over most of its
+    motion is a constant rate, not a rail (:data:`PLATEAU_TOL`, :data:`RAMP_SPEEDUP`), unless the rail shows itself
+    elsewhere. ``gyr`` (N, 3) raw, ``acc`` (N, 3) (a whole sample repeated is one the logger held), ``gyr_b`` (3,)
+    the raw bias, ``dt`` the sample step [s]."""
+    from optinav.attitude.checks import axis_steps, quantum, saturated_extremes
+
+    turns = [(int(a), int(b)) for nm, (a, b) in zip(names, idx) if str(nm).endswith("_rot")]
+    n = gyr.shape[0]
+    out, rails, whole = np.zeros(n, bool), {}, np.column_stack([gyr, acc])
+    for j in range(3):
+        x = gyr[:, j]
+        q = quantum(axis_steps(x))
+        fastest = max((float(np.nanmax(np.abs(x[i0:i1] - gyr_b[j]))) for i0, i1 in turns if i1 > i0), default=0.0)
+        for sgn in (1.0, -1.0):
+            m = float(np.nanmax(sgn * x))
+            rate = m - sgn * float(gyr_b[j])
+            # an extreme no turn moves towards (the rest's noise) is no rail
+            if not (np.isfinite(m) and rate > 0.1 * fastest):
+                continue
+            y = sgn * (x - gyr_b[j])
+            at = sgn * x >= m - 1e-9 * max(abs(m), 1.0)
+            # a natural peak reaches its value once, a rail every peak beyond it: a lone run of 3-4 samples is no
+            # evidence (BROAD's gyro axes hold a sample 3-4 times in 0.1 % of their moving steps, peaks too)
+            shortest = 3 if len(mask_runs(at)) > 1 else 5
+            shown = False
+            for i0, i1 in turns:
+                if at[i0:i1].any():
+                    shown = shown or _turn_rail(y[i0:i1], at[i0:i1], whole[i0:i1], rate, q, dt, shortest)
+            rails[j, sgn] = m, at, shown
+    # the rail shown outside the turns (a turntable faster than the range reads flat at it too)
+    between = np.ones(n, bool)
+    for i0, i1 in turns:
+        between[i0:i1] = False
+    for j, sgn, m, _, _ in saturated_extremes(np.where(between[:, None], gyr, np.nan), dt, acc=acc):
+        if (j, sgn) in rails and m == rails[j, sgn][0]:
+            rails[j, sgn] = (m, rails[j, sgn][1], True)
+    for m, at, shown in rails.values():
+        if shown:
+            for i0, i1 in turns:
+                out[i0:i1] |= at[i0:i1]
+    return out
+
+
+def _constant_rate(y, moving, rate: float, tol: float) -> np.ndarray:
+    """The samples of a turn ``y`` (towards its extreme ``rate``, bias removed; ``moving`` above a tenth of it)
+    that hold a constant rate at the extreme within ``tol`` (:data:`PLATEAU_TOL`, :data:`RAMP_SPEEDUP`), or none."""
+    near = moving & (y >= rate - tol)
+    if 2 * np.count_nonzero(near) < np.count_nonzero(moving):
+        return np.zeros_like(near)
+    for a, b in mask_runs(moving):
+        stretch = mask_runs(near[a:b])
+        if len(stretch) > 1:
+            return np.zeros_like(near)
+        for ramp in () if len(stretch) == 0 else (y[a : a + stretch[0, 0]], y[a + stretch[0, 1] : b][::-1]):
+            d = np.diff(np.r_[ramp, rate])
+            if d.size >= 4 and np.mean(d[d.size // 2 :]) > RAMP_SPEEDUP * np.mean(d[: d.size // 2]):
+                return np.zeros_like(near)
+    return near
+
+
+def _turn_rail(y, at, rows, rate: float, q: float, dt: float, shortest: int) -> bool:
+    """Whether a turn's samples ``y`` (its rate towards the extreme ``rate``, bias removed) show a rail in their
+    runs ``at`` the extreme of ``shortest`` samples or more (see :func:`clipped_turn_rows`); ``rows`` the turn's
+    whole samples (gyro and accelerometer: a run over which all repeat is one the logger held)."""
+    moving = y > 0.1 * rate
+    near = _constant_rate(y, moving, rate, max(PLATEAU_TOL * rate, 2.0 * q))
+    at, moving = at & ~near, moving & ~near
+    off = moving & ~at
+    both = off[1:] & off[:-1]
+    p = (np.count_nonzero(np.diff(y)[both] == 0) + 1) / (np.count_nonzero(both) + 1)
+    for s, e in mask_runs(at):
+        if e - s < shortest or s == 0 or e == y.size or p ** (e - s - 1) >= HOLD_CHANCE:
+            continue
+        if np.all(rows[s:e] == rows[s]):
+            continue
+        # a turn that starts or stops abruptly at its top (a hand turn against a stop) enters or leaves it steeply,
+        # so only a step within the motion counts
+        into = y[s] - y[s - 1] if y[max(s - 2, 0) : s].min() > 0.1 * rate else 0.0
+        out_of = y[e - 1] - y[e] if y[e : e + 2].min() > 0.1 * rate else 0.0
+        if max(into, out_of) > max(0.005 * rate, 5.0 * q) or ((e - s) * dt >= 0.1 and q < 0.001 * rate):
+            return True
+    return False
+
+
+def _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, gyr_b) -> None:
     """One-line errors for a sensor at its full scale inside a Ferraris section (outside them it is harmless):
-    the accelerometer (integer type or --acc-range), the gyro likewise or, in a turn, flat at the log's extreme
-    above the turn's typical rate (a clipped peak: the turn's integral falls short, K too small); ``flat`` False
-    (--gyro-range stated) judges the gyro by its range alone: a turntable's constant rate read by a gyro whose
-    noise is below a count is flat at the log's extreme too."""
+    the accelerometer (integer type or --acc-range), the gyro likewise or, in a turn, at a rail its samples show
+    (:func:`clipped_turn_rows`, with or without --gyro-range: a clipped peak makes the turn's integral fall short,
+    K too small)."""
     sat_g = np.zeros(gyro.shape[0], bool) if sat_g is None else sat_g.copy()
-    for j in range(3 if flat else 0):
-        v = gyro[:, j] - gyr_b[j]
-        runs = flat_runs(gyro[:, j])
-        flat = np.zeros(gyro.shape[0], bool)
-        for a, b in runs:
-            flat[a:b] = True
-        for a, b in runs:
-            for nm, (i0, i1) in zip(names, idx):
-                if str(nm).endswith("_rot") and a < i1 and b > i0:
-                    # the typical rate of the turn's unclipped samples: a turn mostly at the rail (peaks of 4600
-                    # counts clipped at 1000) had the rail for its typical rate, and K_g came out 2× off, exit 0
-                    r = np.abs(v[i0:i1][~flat[i0:i1]])
-                    typical = float(np.median(r[r > 0.1 * r.max()])) if r.size and r.max() > 0 else 0.0
-                    if abs(v[a]) >= 1.2 * typical:
-                        sat_g[max(a, i0) : min(b, i1)] = True
+    sat_g |= clipped_turn_rows(gyro, acc, names, idx, gyr_b, _typical_step(t))
     for what, sat, flag in (("accelerometer", sat_a, "--acc-range"), ("gyroscope", sat_g, "--gyro-range")):
         for nm, (i0, i1) in zip(names, idx):
             n = int(np.count_nonzero(sat[i0:i1]))
@@ -1801,11 +1883,9 @@ def _ferraris(
     *,
     rng=None,
     gyr_clock=None,
-    range_given: bool = False,
 ):
     """The closed-form Ferraris calibration (6 axis poses + 3 rotations named as imucal names them), gated;
-    ``rng`` seeds the Monte Carlo std (None: 0, so that a run repeats); ``gyr_clock`` as :func:`calibrate`;
-    ``range_given``: the gyro's range was stated (``sat_g`` from it), so no flat run is taken for clipping."""
+    ``rng`` seeds the Monte Carlo std (None: 0, so that a run repeats); ``gyr_clock`` as :func:`calibrate`."""
     from . import ferraris
 
     if gyro is None or sections is None:
@@ -1877,7 +1957,7 @@ def _ferraris(
         )
 
     fc, std = closed_form(gyro)
-    _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, fc.gyr_b, flat=not range_given)
+    _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, fc.gyr_b)
     # a clipped turn is named as such above; a spike or dropout inside a turn after it
     if glitch is not None:
         raise glitch
