@@ -1538,9 +1538,9 @@ def test_turn_sampling_covers_what_folds_into_the_turns_without_a_filter(rate):
         assert turn_sampling(turns, poses) == (0.0, pytest.approx(np.zeros((3, 3))))
 
 
-def _quantized_session(rng, rate: float, sigma: float, dur: float = 8.0):
-    """A Ferraris session of a 16-bit gyro in counts (939.6 counts per rad/s, 0.5 s ramps into a constant-rate 2π
-    turn of ``dur`` s about each vertical axis, 1 s rests at its ends) with ``sigma`` counts of white noise, read
+def _quantized_session(rng, rate: float, sigma: float, dur: float = 8.0, angle: float = 2 * np.pi):
+    """A Ferraris session of a 16-bit gyro in counts (939.6 counts per rad/s, 0.5 s ramps into a constant-rate turn
+    by ``angle`` (rad) of ``dur`` s about each vertical axis, 1 s rests at its ends) with ``sigma`` counts of white noise, read
     without an anti-alias filter and rounded to whole counts; poses 5 s. Returns (rows acc, gyr, sections,
     true K_g)."""
     K_a, b_a, K_g, G, b_g = _truth(rng)
@@ -1555,7 +1555,7 @@ def _quantized_session(rng, rate: float, sigma: float, dur: float = 8.0):
     ramp = np.clip(np.minimum(tt - 1.0, dur + 1.0 - tt) / 0.5, 0.0, 1.0)
     for j, ax in enumerate("xyz"):
         w = np.zeros((tt.size, 3))
-        w[:, j] = ramp * 2 * np.pi / (ramp.sum() / rate)
+        w[:, j] = ramp * angle / (ramp.sum() / rate)
         secs[f"{ax}_rot"] = (len(f_rows), len(f_rows) + tt.size)
         f_rows += [np.eye(3)[j] * 9.81] * tt.size
         w_rows += list(w)
@@ -1689,6 +1689,40 @@ def test_a_constant_rate_turn_read_below_a_count_is_no_clip(tmp_path, capsys):
     gyr[i, 0] = np.minimum(gyr[i, 0], 0.5 * gyr[i, 0].max())
     code, err, out = _ferraris_cli(tmp_path, (t, acc, gyr, labels), capsys)
     assert code == 2 and "gyroscope is at its full scale" in err[-1] and "x_rot" in err[-1], err
+
+
+def test_a_constant_rate_turn_clipped_at_a_common_gyro_range_is_refused(tmp_path, capsys):
+    """A turntable run just faster than the gyro's range (two turns at 258 deg/s, a driver clipping its deg/s output
+    at 250): each turn flat at 250 deg/s for 2.5 s, entered by a straight ramp, as a constant rate read below a
+    count is; taken for one, it passed with exit 0, K_xx and K_yy 3.4 and 4.8 % small (190 and 260 std). Flat where
+    a gyro set to a common range rails (at_gyro_rail), it is refused naming --gyro-range; unclipped it passes,
+    every scale within 3 std."""
+    from optinav.cli.main import main
+    from optinav.multipos.calibrate import at_gyro_rail
+
+    # two turns (720°) at 258 deg/s, 2.3 s of them at the constant rate
+    acc, gyr, secs, K_g = _quantized_session(np.random.default_rng(0), 100.0, 0.1, dur=3.29, angle=4 * np.pi)
+    acc = acc + np.round(np.random.default_rng(1).normal(0.0, 3.0, acc.shape))
+    scale = np.degrees(1.0 / 939.6)  # deg/s per count
+    labels = np.full(acc.shape[0], "", dtype=object)
+    for name, (a, b) in secs.items():
+        labels[a:b] = name
+    t = np.arange(acc.shape[0]) / 100.0
+    argv = ["--quiet", "calibrate", "accel", "", "--acc-unit", "counts", "--gyro-unit", "deg/s", "--method"]
+    argv += ["ferraris", "--rotation-angle", "720", "--gravity", "9.81", "--out", str(tmp_path / "r.json")]
+    argv[3] = str(_write_labelled(tmp_path / "log.csv", t, acc, gyr * scale, labels))
+    assert main(argv) == 0, capsys.readouterr().err
+    g = json.loads((tmp_path / "r.json").read_text())["fields"]["gyroscope"]["value"]
+    z = (np.diag(g["K"]) - np.diag(K_g) * scale) / np.diag(g["K_std"])
+    assert np.all(np.abs(z) < 3.0), z
+    argv[3] = str(_write_labelled(tmp_path / "clipped.csv", t, acc, np.clip(gyr * scale, -250.0, 250.0), labels))
+    (tmp_path / "r.json").unlink()
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "gyroscope is at its full scale" in err and "--gyro-range" in err, err
+    assert (
+        at_gyro_rail(250.1, "deg/s") and at_gyro_rail(np.radians(286.7), "rad/s") and not at_gyro_rail(330.0, "deg/s")
+    )
 
 
 def _unfiltered_session(rng, rate: float, turn):

@@ -586,6 +586,7 @@ def calibrate(
             sat_g,
             rng=rng,
             gyr_clock=gyr_clock,
+            range_stated=gyro_range is not None,
         )
     selection = {}
     step("detect static intervals")
@@ -1722,7 +1723,24 @@ RAMP_SPEEDUP = 1.2
 HOLD_CHANCE = 1e-3
 
 
-def clipped_turn_rows(gyr, acc, names, idx, gyr_b, dt: float) -> np.ndarray:
+#: deg/s, the full scales MEMS gyros are set to; a 16-bit output rails at the scale itself (32767 counts at 131
+#: counts per deg/s: 250.1) or, at ST's round sensitivities (8.75 mdps per count at 250), GYRO_RAIL_ST times it
+GYRO_RANGES_DPS = (125.0, 245.0, 250.0, 300.0, 400.0, 500.0, 1000.0, 2000.0, 4000.0)
+GYRO_RAIL_ST = 32767 * 0.00875 / 250.0
+
+
+def at_gyro_rail(value: float, unit: str) -> bool:
+    """Whether a gyro reading ``value`` [``unit``, not counts] lies within 0.3 % of where a MEMS gyro set to a
+    common full scale rails (:data:`GYRO_RANGES_DPS`): a turn flat there is taken for clipped, not for a turntable's
+    constant rate (--gyro-range states the range where a turntable ran at exactly that rate)."""
+    if unit == "counts" or not np.isfinite(value):
+        return False
+    dps = abs(float(value)) * factor(unit) * 180.0 / np.pi
+    rails = np.array(GYRO_RANGES_DPS)
+    return bool(np.any(np.abs(dps / np.r_[rails, GYRO_RAIL_ST * rails] - 1.0) <= 0.003))
+
+
+def clipped_turn_rows(gyr, acc, names, idx, gyr_b, dt: float, unit: str = "counts") -> np.ndarray:
     """Rows (N,) of the Ferraris rotation sections (``names`` ending in _rot, half-open ``idx`` rows) where the gyro
     reads its full scale, judged from the samples, so that a stated range too large hides none: per axis and sign,
     the turns' samples at the log's extreme once that shows itself a rail — in a turn, a run of k ≥ 3 samples at it
@@ -1733,8 +1751,9 @@ def clipped_turn_rows(gyr, acc, names, idx, gyr_b, dt: float) -> np.ndarray:
     the turns by the attitude input check's rule (:func:`optinav.attitude.checks.saturated_extremes`: a clip on the
     moves between the poses shows the rail a single sample of a turn reaches). A rate a turn holds over most of its
     motion is a constant rate, not a rail (:data:`PLATEAU_TOL`, :data:`RAMP_SPEEDUP`), unless the rail shows itself
-    elsewhere. ``gyr`` (N, 3) raw, ``acc`` (N, 3) (a whole sample repeated is one the logger held), ``gyr_b`` (3,)
-    the raw bias, ``dt`` the sample step [s]."""
+    elsewhere, or sits where a gyro set to a common range rails (:func:`at_gyro_rail`). ``gyr`` (N, 3) raw [``unit``],
+    ``acc`` (N, 3) (a whole sample repeated is one the logger held), ``gyr_b`` (3,) the raw bias, ``dt`` the sample
+    step [s]."""
     from optinav.attitude.checks import axis_steps, quantum, saturated_extremes
 
     turns = [(int(a), int(b)) for nm, (a, b) in zip(names, idx) if str(nm).endswith("_rot")]
@@ -1758,7 +1777,9 @@ def clipped_turn_rows(gyr, acc, names, idx, gyr_b, dt: float) -> np.ndarray:
             shown = False
             for i0, i1 in turns:
                 if at[i0:i1].any():
-                    shown = shown or _turn_rail(y[i0:i1], at[i0:i1], whole[i0:i1], rate, q, dt, shortest)
+                    shown = shown or _turn_rail(
+                        y[i0:i1], at[i0:i1], whole[i0:i1], rate, q, dt, shortest, not at_gyro_rail(m, unit)
+                    )
             rails[j, sgn] = m, at, shown
     # the rail shown outside the turns (a turntable faster than the range reads flat at it too)
     between = np.ones(n, bool)
@@ -1791,12 +1812,13 @@ def _constant_rate(y, moving, rate: float, tol: float) -> np.ndarray:
     return near
 
 
-def _turn_rail(y, at, rows, rate: float, q: float, dt: float, shortest: int) -> bool:
+def _turn_rail(y, at, rows, rate: float, q: float, dt: float, shortest: int, plateau: bool = True) -> bool:
     """Whether a turn's samples ``y`` (its rate towards the extreme ``rate``, bias removed) show a rail in their
     runs ``at`` the extreme of ``shortest`` samples or more (see :func:`clipped_turn_rows`); ``rows`` the turn's
-    whole samples (gyro and accelerometer: a run over which all repeat is one the logger held)."""
+    whole samples (gyro and accelerometer: a run over which all repeat is one the logger held); ``plateau`` False:
+    a constant rate held at the extreme is judged as a rail too."""
     moving = y > 0.1 * rate
-    near = _constant_rate(y, moving, rate, max(PLATEAU_TOL * rate, 2.0 * q))
+    near = _constant_rate(y, moving, rate, max(PLATEAU_TOL * rate, 2.0 * q)) if plateau else np.zeros_like(moving)
     at, moving = at & ~near, moving & ~near
     off = moving & ~at
     both = off[1:] & off[:-1]
@@ -1815,13 +1837,14 @@ def _turn_rail(y, at, rows, rate: float, q: float, dt: float, shortest: int) -> 
     return False
 
 
-def _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, gyr_b) -> None:
+def _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, gyr_b, rail_unit: str = "counts") -> None:
     """One-line errors for a sensor at its full scale inside a Ferraris section (outside them it is harmless):
     the accelerometer (integer type or --acc-range), the gyro likewise or, in a turn, at a rail its samples show
     (:func:`clipped_turn_rows`, with or without --gyro-range: a clipped peak makes the turn's integral fall short,
-    K too small)."""
+    K too small); ``rail_unit`` the gyro's unit where a flat turn at a common range's rail is a clip (no range
+    stated), else "counts"."""
     sat_g = np.zeros(gyro.shape[0], bool) if sat_g is None else sat_g.copy()
-    sat_g |= clipped_turn_rows(gyro, acc, names, idx, gyr_b, _typical_step(t))
+    sat_g |= clipped_turn_rows(gyro, acc, names, idx, gyr_b, _typical_step(t), rail_unit)
     for what, sat, flag in (("accelerometer", sat_a, "--acc-range"), ("gyroscope", sat_g, "--gyro-range")):
         for nm, (i0, i1) in zip(names, idx):
             n = int(np.count_nonzero(sat[i0:i1]))
@@ -1883,9 +1906,11 @@ def _ferraris(
     *,
     rng=None,
     gyr_clock=None,
+    range_stated: bool = False,
 ):
     """The closed-form Ferraris calibration (6 axis poses + 3 rotations named as imucal names them), gated;
-    ``rng`` seeds the Monte Carlo std (None: 0, so that a run repeats); ``gyr_clock`` as :func:`calibrate`."""
+    ``rng`` seeds the Monte Carlo std (None: 0, so that a run repeats); ``gyr_clock`` as :func:`calibrate`;
+    ``range_stated``: --gyro-range was given (a turn flat at a common range's rail is then a constant rate)."""
     from . import ferraris
 
     if gyro is None or sections is None:
@@ -1957,7 +1982,7 @@ def _ferraris(
         )
 
     fc, std = closed_form(gyro)
-    _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, fc.gyr_b)
+    _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, fc.gyr_b, "counts" if range_stated else gyro_unit)
     # a clipped turn is named as such above; a spike or dropout inside a turn after it
     if glitch is not None:
         raise glitch
