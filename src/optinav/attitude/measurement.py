@@ -248,15 +248,24 @@ def predicted_aop(q_b_n, sun_n, C_b_m=None, frame: str = DEFAULT_FRAME) -> np.nd
     (N,) ndarray
         AoP in [−π/2, π/2) [rad].
     """
-    from optinav.core.rotations import dcm_from_quat
+    return sensor_aop(sun_in_sensor(q_b_n, sun_n, as_c_b_m(C_b_m, frame)))
 
-    c_b_m = as_c_b_m(C_b_m, frame)
-    q = as_float_array(q_b_n, "q_b_n", last_dims=(4,))
-    s = as_float_array(sun_n, "sun_n", last_dims=(3,))
-    s_b = np.einsum("...ji,...j->...i", dcm_from_quat(q), s)
-    s_m = s_b @ c_b_m.T
+
+def sensor_aop(s_m) -> np.ndarray:
+    """The Rayleigh AoP [rad] in [−π/2, π/2) of unit sun vector(s) ``s_m`` (..., 3) in the sensor frame."""
+    s_m = np.asarray(s_m, float)
     # E ∝ s_m × z_m = [s_y, −s_x, 0]
     return wrap_axial(np.arctan2(-s_m[..., 0], s_m[..., 1]))
+
+
+def sun_in_sensor(q_b_n, sun_n, C_b_m) -> np.ndarray:
+    """The unit sun vector in the sensor frame, s_m = C_b^m C_n^b s_n, at attitude(s) ``q_b_n`` (4,) or (N, 4)
+    [w, x, y, z] for sun vector(s) ``sun_n`` (3,) or (N, 3) and the mounting ``C_b_m`` (3, 3) [-]."""
+    from optinav.core.rotations import dcm_from_quat
+
+    q = as_float_array(q_b_n, "q_b_n", last_dims=(4,))
+    s = as_float_array(sun_n, "sun_n", last_dims=(3,))
+    return np.einsum("...ji,...j->...i", dcm_from_quat(q), s) @ np.asarray(C_b_m, float).T
 
 
 def pol_inputs(pol, n: int, frame: str, what: str = "the IMU"):
