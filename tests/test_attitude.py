@@ -417,9 +417,10 @@ def test_streaming_equals_batch(method):
     d = synth(300, amp=1.5, seed=4, gyro_sigma=0.01, acc_sigma=0.1, aop_sigma=0.01)
     dt = np.full(300, d["dt"]) * np.linspace(0.8, 1.2, 300)  # per-sample steps
     pol = PolarizationMeasurement(d["aop"], d["sun"], dop=np.full(300, 0.4))
-    r = estimate(d["gyr"], d["acc"], dt, pol=pol, method=method)
+    # from q0: without it a stream cannot take the heading branch that estimate() lets the recording decide
+    r = estimate(d["gyr"], d["acc"], dt, pol=pol, method=method, q0=d["q_start"])
     q_b = r.q_b_n
-    f = make_filter(method)
+    f = make_filter(method, q0=d["q_start"])
     q_s = np.array([f.update(d["gyr"][i], d["acc"][i], dt[i], (d["aop"][i], d["sun"], 0.4)) for i in range(300)])
     assert np.max(np.abs(q_s - q_b)) < 1e-13
     # the filter counts what estimate() counts, the samples with the sun near the sensor's zenith included (they
@@ -438,14 +439,15 @@ def test_streaming_filters_take_a_rate_and_chunks_like_iframe(method):
     d = synth(300, amp=1.5, seed=5, gyro_sigma=0.01, acc_sigma=0.1, aop_sigma=0.01)
     pol = PolarizationMeasurement(d["aop"], d["sun"], dop=np.full(300, 0.4))
     for stage in (True, False):  # with the input stage (the default) and as published
-        r = estimate(d["gyr"], d["acc"], d["dt"], pol=pol, method=method, input_stage=stage)
+        # heading0: the branch a stream takes where estimate() lets the recording decide; q0 there
+        r = estimate(d["gyr"], d["acc"], d["dt"], pol=pol, method=method, input_stage=stage, q0=d["q_start"])
         q_b = r.q_b_n
-        f = make_filter(method, rate_hz=1.0 / d["dt"], input_stage=stage)
+        f = make_filter(method, rate_hz=1.0 / d["dt"], input_stage=stage, q0=d["q_start"])
         cuts = [0, 1, 37, 200, 300]
         q_c = np.vstack([f.update_batch(d["gyr"][a:b], d["acc"][a:b], pol=pol.select(slice(a, b))).q_b_n for a, b in
                          zip(cuts[:-1], cuts[1:])])  # fmt: skip
         assert np.array_equal(q_c, q_b) and np.array_equal(f.q_b_n, q_b[-1])
-        g = make_filter(method, dt=d["dt"], input_stage=stage)
+        g = make_filter(method, dt=d["dt"], input_stage=stage, q0=d["q_start"])
         q_s = np.array(
             [g.update(d["gyr"][i], d["acc"][i], pol_sample=(d["aop"][i], d["sun"], 0.4)) for i in range(300)]
         )
@@ -513,11 +515,20 @@ def test_bad_polarization_input():
 
 
 def test_initial_heading_from_polarization():
+    """One sample's AoP gives the heading up to its branch: initial_attitude takes the one nearest the levelled
+    start's (here the truth's, 40°), or the other (``other_root``, 180° away for a nearly level sensor). A resting
+    body's recording cannot tell them apart: estimate() without q0 refuses it (it ran the first with exit 0)."""
     d = synth(50, amp=0.0)
     q_start = quat_from_euler(np.radians([5.0, -3.0, 40.0]))
     acc = np.tile(dcm_from_quat(q_start).T @ [0, 0, -G], (50, 1))
     aop = aop_truth(np.tile(q_start, (50, 1)), d["sun"], DEFAULT_C_B_M)
-    q = estimate_q(np.zeros((50, 3)), acc, 0.01, pol=PolarizationMeasurement(aop, d["sun"]), method="qn")
+    pol = PolarizationMeasurement(aop, d["sun"])
+    assert np.degrees(quat_angle_between(initial_attitude(acc[0], "ned", pol), q_start)) < 0.6
+    other = initial_attitude(acc[0], "ned", pol, other_root=True)
+    assert abs(np.degrees(heading_error(other[None], q_start[None]))[0] - 180.0) < 10.0
+    with pytest.raises(OptinavError, match="ambiguous by 180°"):
+        estimate_q(np.zeros((50, 3)), acc, 0.01, pol=pol, method="qn")
+    q = estimate_q(np.zeros((50, 3)), acc, 0.01, pol=pol, method="qn", q0=q_start)
     assert np.degrees(quat_angle_between(q[0], q_start)) < 0.6
 
 
@@ -769,6 +780,100 @@ def test_with_polarization_a_disturbed_magnetometer_leaves_the_heading_alone():
         estimate(d["gyr"], d["acc"], d["dt"], mag=mag, pol=pol, method="mekf")
 
 
+#: rad, the AoP noise of the heading-branch logs: a heading held to the AoP averages many samples, so its RMSE stays
+#: under half of one sample's noise (measured 0.06-0.21° for mekf, iframe online and offline, qn; 0.33° gd)
+_AOP_SIGMA = np.radians(1.0)
+
+
+def _start_150(n=6000):
+    """60 s of tilting motion starting at heading 150°, beyond the 90° of the AoP's branch a start takes."""
+    return synth(n, amp=1.0, seed=0, gyro_sigma=0.005, acc_sigma=0.05, aop_sigma=_AOP_SIGMA,
+                 q_start=quat_from_euler([0.1, -0.05, np.radians(150.0)]))  # fmt: skip
+
+
+def _level_yawing(n=3000, seed=0):
+    """A level body under the zenith-viewing sensor, yawing from heading 150°: the AoP at ψ and ψ + 180° is the
+    same throughout (gyr, acc, dt, q, aop, sun, q_start as :func:`synth`)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / 100.0
+    rate = 0.3 * np.sin(2 * np.pi * 0.1 * t)
+    yaw = np.radians(150.0) + np.cumsum(rate) / 100.0
+    q = quat_from_euler(np.column_stack([np.zeros(n), np.zeros(n), yaw]))
+    s = sun_ned()
+    aop = aop_truth(q, s, DEFAULT_C_B_M) + rng.normal(0.0, _AOP_SIGMA, n)
+    gyr = np.column_stack([np.zeros(n), np.zeros(n), rate]) + rng.normal(0.0, 0.005, (n, 3))
+    acc = np.tile([0.0, 0.0, -G], (n, 1)) + rng.normal(0.0, 0.05, (n, 3))
+    return dict(gyr=gyr, acc=acc, dt=0.01, q=q, aop=(aop + np.pi / 2) % np.pi - np.pi / 2, sun=s, q_start=q[0])
+
+
+@pytest.mark.parametrize("kw", [{}, {"method": "iframe"}, {"offline": True}, {"method": "qn"}],
+                         ids=["mekf", "iframe", "offline", "qn"])  # fmt: skip
+def test_polarization_alone_takes_the_heading_branch_the_recording_shows(kw):
+    """Polarization alone, no q0, a start at heading 150° with tilting motion: the start's |ψ| ≤ 90° branch ran
+    180° off with exit 0 (mekf 176°, iframe 62°, offline 25°, qn 47° RMSE after 10 s). iframe from either branch:
+    the AoP residuals of the other grow as the tilt changes (RMS 1.02° against 33.7°), so the data picks it, and the
+    summary says so; qn from the start on that branch (from the other it crossed only after 30 s)."""
+    d = _start_150()
+    r = estimate(d["gyr"], d["acc"], d["dt"], pol=PolarizationMeasurement(d["aop"], d["sun"]), **kw)
+    h = _heading_deg(r.q_b_n, d["q"])
+    assert rmse(h[1000:]) < np.degrees(_AOP_SIGMA) / 2 and h[:1000].max() < 2.0, (rmse(h[1000:]), h[:1000].max())
+    rms = np.degrees(r.pol_branch_rms)
+    assert rms[0] < 2 * np.degrees(_AOP_SIGMA) < 10 * rms[0] < rms[1], rms
+    assert "heading branch chosen by the data" in r.summary()
+
+
+def test_a_level_body_under_a_zenith_sensor_is_refused_without_q0():
+    """A level body yawing under the zenith-viewing sensor: the AoP at ψ and ψ + 180° is the same, nothing in the
+    recording tells the two apart. Without q0 every method ran the |ψ| ≤ 90° branch, 180° off, with exit 0; now
+    refused in one line naming the remedy. With q0 the heading follows the AoP."""
+    d = _level_yawing()
+    pol = PolarizationMeasurement(d["aop"], d["sun"])
+    for kw in ({}, {"method": "iframe"}, {"offline": True}):
+        with pytest.raises(OptinavError, match=r"ambiguous by 180°.*--q0-deg ROLL,PITCH,YAW.*--mag") as e:
+            estimate(d["gyr"], d["acc"], d["dt"], pol=pol, **kw)
+        assert "\n" not in str(e.value)
+        r = estimate(d["gyr"], d["acc"], d["dt"], pol=pol, q0=d["q_start"], **kw)
+        h = _heading_deg(r.q_b_n, d["q"])
+        assert rmse(h[500:]) < np.degrees(_AOP_SIGMA) / 2 and r.pol_branch_rms is None, (kw, rmse(h[500:]))
+
+
+def test_with_a_magnetometer_the_field_picks_the_heading_branch():
+    """iframe with the field and polarization, no q0, a start at heading 150°: the field's heading, turned 60° by a
+    disturbance for the first 10 s (norm and dip kept), is within 90° of the truth and picks the AoP's branch, nothing
+    decided by the data (online and offline). A field that starts 2 s after the AoP came too late: the AoP had taken
+    the |ψ| ≤ 90° branch and held the field to it (62° RMSE online, 25° offline); now the data decides there."""
+    d = _start_150()
+    pol = PolarizationMeasurement(d["aop"], d["sun"])
+    late = _field(d["q"], 0)
+    late[:200] = np.nan
+    for mag, decided in ((_field(d["q"], 0, slice(0, 1000), deg=60.0), False), (late, True)):
+        for offline in (False, True):
+            r = estimate(d["gyr"], d["acc"], d["dt"], pol=pol, mag=mag, offline=offline)
+            h = _heading_deg(r.q_b_n, d["q"])
+            assert rmse(h[1000:]) < np.degrees(_AOP_SIGMA) / 2, (decided, offline, rmse(h[1000:]))
+            assert (r.pol_branch_rms is not None) == decided
+
+
+@pytest.mark.parametrize("method", ["mekf", "iframe"])
+def test_a_streaming_filter_needs_the_heading_branch_with_polarization_alone(method):
+    """A streaming filter's outputs leave sample by sample, before the data can tell the branches apart: with
+    polarization alone and neither q0 nor heading0 its first polarization sample is refused (before, the
+    |ψ| ≤ 90° branch ran 180° off), the state unchanged. heading0 = π (the branch with |ψ| > 90°) or q0 follow
+    the AoP; iframe's filter takes a magnetometer's field as the branch."""
+    d = _start_150(3000)
+    pol = PolarizationMeasurement(d["aop"], d["sun"])
+    f = make_filter(method, dt=d["dt"])
+    with pytest.raises(OptinavError, match="q0=.*heading0="):
+        f.update_batch(d["gyr"], d["acc"], pol=pol)
+    assert f.q_b_n is None
+    runs = [make_filter(method, dt=d["dt"], heading0=np.pi), make_filter(method, dt=d["dt"], q0=d["q_start"])]
+    qs = [g.update_batch(d["gyr"], d["acc"], pol=pol).q_b_n for g in runs]
+    if method == "iframe":
+        qs.append(make_filter(method, dt=d["dt"]).update_batch(d["gyr"], d["acc"], _field(d["q"], 0), pol=pol).q_b_n)
+    for q in qs:
+        assert rmse(_heading_deg(q, d["q"])[1000:]) < np.degrees(_AOP_SIGMA) / 2
+
+
 def test_with_polarization_a_declined_field_is_used_once_the_declination_is_given():
     """A field 15° east of true north (beyond mag_pol_th, 10°) beside polarization, which gives the true heading:
     without the declination the field's azimuth disagrees with the polarization's heading and is not used (0 % of
@@ -800,8 +905,9 @@ def test_iframe_with_polarization_streamed_equals_the_estimate():
     aop[::7] = np.nan
     pol = PolarizationMeasurement(aop, d["sun"])
     for mag in (None, _field(d["q"], 4)):
-        r = estimate(d["gyr"], d["acc"], d["dt"], mag=mag, pol=pol, method="iframe")
-        f = AttitudeFilter(rate_hz=1.0 / d["dt"])
+        # from q0 (a stream cannot let the recording decide the heading branch, as estimate() does without it)
+        r = estimate(d["gyr"], d["acc"], d["dt"], mag=mag, pol=pol, method="iframe", q0=d["q_start"])
+        f = AttitudeFilter(rate_hz=1.0 / d["dt"], q0=d["q_start"])
         parts = [
             f.update_batch(d["gyr"][a : a + 700], d["acc"][a : a + 700], None if mag is None else mag[a : a + 700],
                            pol=pol.select(slice(a, a + 700)))
@@ -811,7 +917,7 @@ def test_iframe_with_polarization_streamed_equals_the_estimate():
         assert sum(int(p.pol_used.sum()) for p in parts) == r.pol_used > 0.7 * n
         assert {k: sum(p.pol_skipped[k] for p in parts) for k in r.pol_skipped} == r.pol_skipped
         assert f.pol_used == parts[-1].pol_used[-1] and f.pol_skipped == r.pol_skipped
-        g = AttitudeFilter(rate_hz=1.0 / d["dt"])  # one sample at a time, AoP and sun as the other filters take them
+        g = AttitudeFilter(rate_hz=1.0 / d["dt"], q0=d["q_start"])  # one sample at a time, as the other filters
         qs = np.empty((n, 4))
         for i in range(n):
             g.update(d["gyr"][i], d["acc"][i], None if mag is None else mag[i], pol_sample=(aop[i], d["sun"]))

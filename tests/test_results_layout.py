@@ -222,7 +222,7 @@ def test_attitude_estimate_v4_with_the_old_field_names_loads():
     np.testing.assert_array_equal(res.q_b_n, old["fields"]["q"]["value"])
     np.testing.assert_array_equal(res.gyr_bias, old["fields"]["gyro_bias"]["value"])
     new = json.loads(res.to_json())
-    assert new["version"] == AttitudeEstimate.VERSION == 8 and "q_b_n" in new["fields"] and "q" not in new["fields"]
+    assert new["version"] == AttitudeEstimate.VERSION == 9 and "q_b_n" in new["fields"] and "q" not in new["fields"]
     assert new["parameters"] == old["parameters"]
 
 
@@ -233,11 +233,11 @@ def test_attitude_estimate_v5_without_the_offset_fraction_loads():
     res = AttitudeEstimate.from_json(LEGACY / "attitude_v5.json")
     np.testing.assert_array_equal(res.q_b_n, old["fields"]["q_b_n"]["value"])
     assert res.mag_offset_used is None and res.method == old["fields"]["method"]["value"]
-    assert json.loads(res.to_json())["version"] == 8
+    assert json.loads(res.to_json())["version"] == 9
 
 
 def test_attitude_estimate_v6_without_the_hard_iron_offset_loads():
-    """v6 (before ``mag_hard_iron``) reads into v8 with it None (none subtracted), the rest as written."""
+    """v6 (before ``mag_hard_iron``) reads into v9 with it None (none subtracted), the rest as written."""
     old = _old("attitude_v6.json")
     assert old["version"] == 6 and "mag_hard_iron" not in old["fields"]
     res = AttitudeEstimate.from_json(LEGACY / "attitude_v6.json")
@@ -245,11 +245,11 @@ def test_attitude_estimate_v6_without_the_hard_iron_offset_loads():
     assert res.mag_hard_iron is None and not res.mag_hard_iron_fitted
     assert res.mag_offset_used == old["fields"]["mag_offset_used"]["value"]
     new = json.loads(res.to_json())
-    assert new["version"] == 8 and new["fields"]["mag_hard_iron"]["value"] is None
+    assert new["version"] == 9 and new["fields"]["mag_hard_iron"]["value"] is None
 
 
 def test_attitude_estimate_v7_without_the_online_fit_sample_loads():
-    """v7 (before ``mag_hard_iron_from``) reads into v8 with it None (not fitted online), the rest as written."""
+    """v7 (before ``mag_hard_iron_from``) reads into v9 with it None (not fitted online), the rest as written."""
     old = _old("attitude_v7.json")
     assert old["version"] == 7 and "mag_hard_iron_from" not in old["fields"]
     res = AttitudeEstimate.from_json(LEGACY / "attitude_v7.json")
@@ -257,7 +257,19 @@ def test_attitude_estimate_v7_without_the_online_fit_sample_loads():
     np.testing.assert_array_equal(res.mag_hard_iron, [3.0, -1.0, 2.0])
     assert res.mag_hard_iron_from is None and not res.mag_hard_iron_fitted
     new = json.loads(res.to_json())
-    assert new["version"] == 8 and new["fields"]["mag_hard_iron_from"]["value"] is None
+    assert new["version"] == 9 and new["fields"]["mag_hard_iron_from"]["value"] is None
+
+
+def test_attitude_estimate_v8_without_the_heading_branch_loads():
+    """v8 (before ``pol_branch_rms``; an iframe estimate with polarization from q0) reads into v9 with it None (no
+    heading branch decided), the rest as written."""
+    old = _old("attitude_v8.json")
+    assert old["version"] == 8 and "pol_branch_rms" not in old["fields"] and old["fields"]["pol_used"]["value"] > 0
+    res = AttitudeEstimate.from_json(LEGACY / "attitude_v8.json")
+    np.testing.assert_array_equal(res.q_b_n, old["fields"]["q_b_n"]["value"])
+    assert res.pol_branch_rms is None and res.pol_used == old["fields"]["pol_used"]["value"]
+    new = json.loads(res.to_json())
+    assert new["version"] == 9 and new["fields"]["pol_branch_rms"]["value"] is None
 
 
 def test_a_fresh_interpreter_reads_every_file_through_the_base_class():

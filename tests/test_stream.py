@@ -416,6 +416,56 @@ def test_attitude_offline_streamed_equals_whole(monkeypatch, tmp_path, flight_lo
     assert rms[0] <= rms[1] and rms[0] < 2.0, rms
 
 
+def _pol_log(path, level: bool):
+    """A 40-s log (100 Hz, NED) with an AoP column (rad) of a zenith-viewing sensor, the sun fixed at azimuth 120°,
+    elevation 30°, a start at heading 150° (beyond the |ψ| ≤ 90° branch a start takes): tilting motion, or a level
+    body yawing (``level``). Returns the true q_b^n (N, 4)."""
+    from optinav.attitude import DEFAULT_C_B_M, predicted_aop
+    from optinav.core.rotations import quat_from_euler, quat_from_rotvec, quat_multiply, quat_rotate, quat_conjugate
+
+    n, rng = 4000, np.random.default_rng(1)
+    t = np.arange(n) / 100.0
+    w = np.column_stack([0.8 * np.sin(2 * np.pi * f * t + p) for f, p in ((0.11, 0.3), (0.07, 1.1), (0.05, 2.0))])
+    if level:
+        w[:, :2] = 0.0
+    q, cur = np.empty((n, 4)), quat_from_euler(np.radians([0.0, 0.0, 150.0]) if level else [0.1, -0.05, 2.618])
+    for i, dq in enumerate(quat_from_rotvec(w * 0.01)):
+        q[i] = cur = quat_multiply(cur, dq)
+    az, el = np.radians(120.0), np.radians(30.0)
+    sun = np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), -np.sin(el)])
+    aop = predicted_aop(q, sun, DEFAULT_C_B_M) + rng.normal(0.0, np.radians(1.0), n)
+    acc = quat_rotate(quat_conjugate(q), np.broadcast_to([0.0, 0.0, -9.81], (n, 3))) + rng.normal(0, 0.05, (n, 3))
+    gyr = w + rng.normal(0.0, 0.005, (n, 3))
+    np.savetxt(path, np.column_stack([t, acc, gyr, (aop + np.pi / 2) % np.pi - np.pi / 2]), delimiter=",",
+               fmt="%.10g", header="# units: t=s acc=m/s^2 gyro=rad/s\nt,ax,ay,az,gx,gy,gz,aop", comments="")  # fmt: skip
+    return q
+
+
+_POL_SUN = ["--pol-columns", "aop", "--sun-azimuth", "120", "--sun-elevation", "30"]
+
+
+@pytest.mark.parametrize("extra", [[], ["--method", "iframe"], ["--offline"]], ids=["mekf", "iframe", "offline"])
+def test_attitude_pol_heading_branch_streamed_equals_whole(monkeypatch, tmp_path, capsys, extra):
+    """Polarization alone, no --q0-deg, a start at heading 150° with tilting motion: the file read in blocks takes
+    the branch the AoP shows (iframe from either, as estimate() decides it; 180° off before with exit 0), the CSV the
+    in-memory path's byte for byte (blocks of 37 and 10⁶ rows) and the summary line the same; a level body yawing
+    is refused in one line naming --q0-deg, before anything is written."""
+    from optinav.attitude.metrics import heading_error
+
+    p = tmp_path / "pol.csv"
+    q = _pol_log(p, level=False)
+    got = _streamed_and_whole(monkeypatch, tmp_path, [str(p), *_POL_SUN, *extra], capsys)
+    assert got["37"] == got["1000000"] == got["whole"]
+    assert "heading branch chosen by the data" in got["37"][1]
+    est = np.loadtxt(tmp_path / "s37.csv", delimiter=",", skiprows=1)[:, 1:5]
+    assert np.degrees(np.sqrt(np.mean(heading_error(est[1000:], q[1000:]) ** 2))) < 0.5
+    _pol_log(p, level=True)
+    out = tmp_path / "level.csv"
+    assert main(["--quiet", "attitude", str(p), *_POL_SUN, *extra, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "ambiguous by 180°" in err and "--q0-deg" in err and err.count("\n") == 1 and not out.exists()
+
+
 def test_attitude_offline_refuses_a_full_disk_up_front(monkeypatch, tmp_path, flight_log, capsys):
     """Too little free space for the scratch file: a one-line error with the estimate, before any estimate, and no
     file left."""

@@ -70,7 +70,8 @@ S_STEP_S = 145
 # δ, the last sample's flag (1 used)
 S_P_T0, S_P_LAST, S_P_INIT, S_POL_USED = 163, 164, 165, 166
 S_P_USED_T = 167  # s of its last used sample
-STATE_SIZE = 168
+S_P_OTHER = 168  # 1: its first used sample takes the AoP's other root, the heading branch not nearest δ
+STATE_SIZE = 169
 
 #: s, the rest detector reads gyro and accelerometer through a first-order low-pass of this time constant (a band
 #: of about 1/(4·REST_BAND_TAU) = 250 Hz): white noise of a given density (rad/s/√Hz, m/s²/√Hz) then deviates from
@@ -444,8 +445,8 @@ def _hard_iron(st, par, t0, t1, t2, t3, mx, my, mz, hm):
 
 @numba.njit(**_NJ)
 def _init(st, par, ax, ay, az):
-    """Level q_c from the first accelerometer sample unless q0 was put there (q_g = identity, δ = 0); fill the
-    filter memories."""
+    """Level q_c from the first accelerometer sample unless q0 was put there (q_g = identity, δ as the new state
+    set it: 0, or the heading branch to start from); fill the filter memories."""
     ux, uy, uz = par[P_UP], par[P_UP + 1], par[P_UP + 2]
     na = math.sqrt(ax * ax + ay * ay + az * az)
     st[S_QG] = 1.0
@@ -475,7 +476,6 @@ def _init(st, par, ax, ay, az):
     for j in range(9):
         for k in range(4):
             st[S_LPC + 4 * j + k] = 1.0 if j % 4 == 0 else 0.0
-    st[S_DELTA] = 0.0
     st[S_INIT] = 1.0
 
 
@@ -863,7 +863,8 @@ def _pol_update(st, par, sx, sy, sz, cbm, aop, min_d2, h):
     the viewing axis; ``h`` s the step), after :func:`step`: the heading φ at which the AoP predicted through R_up(φ) ⊗ t
     (t = q_c ⊗ q_g) and C_b^m equals the measured one, in closed form (the E-vector (y, −x) of the sun at
     (x, y, ·) in m parallel to (cos α, sin α): A + B cos φ + C sin φ = 0), of its two roots the one nearest δ
-    (the AoP is axial: a level sensor's roots are π apart). δ moves toward it with the gain of a running mean
+    (the AoP is axial: a level sensor's roots are π apart; the first used sample takes the other one where
+    S_P_OTHER is set, the start on the other heading branch). δ moves toward it with the gain of a running mean
     from the first used sample (which sets it there, whatever a magnetometer set: the polarization's heading is
     the true one, and :func:`_pol_gate` then holds the field to it) growing to hp/tau_pol (hp the time since the
     previous sample); the output st[S_Q] is turned by the change. Returns the
@@ -911,6 +912,8 @@ def _pol_update(st, par, sx, sy, sz, cbm, aop, min_d2, h):
     e1 = math.atan2(math.sin(e1), math.cos(e1))
     e2 = math.atan2(math.sin(e2), math.cos(e2))
     err = e1 if abs(e1) <= abs(e2) else e2
+    if st[S_P_INIT] == 0.0 and st[S_P_OTHER] != 0.0:  # the start on the other heading branch
+        err = e2 if abs(e1) <= abs(e2) else e1
     phi = de + err
     cp, sp = math.cos(phi), math.sin(phi)
     x = xs[0] + xs[1] * cp + xs[2] * sp

@@ -34,6 +34,15 @@ from typing import ClassVar
 import numpy as np
 
 from optinav.attitude import _kernels
+from optinav.attitude.branch import (
+    BRANCHES,
+    BranchResiduals,
+    MIN_HELD,
+    HeldBranch,
+    field_sets_branch,
+    stream_branch_error,
+    weakest,
+)
 from optinav.attitude.checks import (
     check_bias_range,
     check_frame,
@@ -155,7 +164,7 @@ class AttitudeEstimate(Estimate):
     initial heading) and ``gyr_bias`` (3,) rad/s, the final gyro-bias estimate, where the method has one."""
 
     SCHEMA: ClassVar[str] = "optinav.attitude.estimate"
-    VERSION: ClassVar[int] = 8
+    VERSION: ClassVar[int] = 9
     SYSTEM: ClassVar[str] = "attitude"
     KIND: ClassVar[str] = "estimate"
     #: checked when a file is loaded: a number or null for q_b_n, nulls or text in rest, gyr_bias or pol_skipped
@@ -170,6 +179,7 @@ class AttitudeEstimate(Estimate):
         "mag_used": Array((None,), finite=True),
         "mag_hard_iron": Array((3,), finite=True),
         "pol_skipped": Entries(others="count"),
+        "pol_branch_rms": Array((2,), finite=True),
     }
 
     q_b_n: np.ndarray = field(metadata={"unit": ""})
@@ -178,6 +188,10 @@ class AttitudeEstimate(Estimate):
     options: dict = field(default_factory=dict)
     pol_used: int = 0
     pol_skipped: dict = field(default_factory=dict)
+    #: polarization alone without q0: the AoP residual RMS of iframe run from the heading's branch taken and from
+    #: the one 180° away (:mod:`optinav.attitude.branch`; with time gaps, of the segment whose other came closest);
+    #: None where nothing was decided (q0 or a magnetometer fixed the branch, no polarization used)
+    pol_branch_rms: np.ndarray | None = field(default=None, metadata={"unit": "rad"})
     acc_threshold_hits: int = 0
     att_std: np.ndarray | None = field(default=None, metadata={"unit": "rad"})
     gyr_bias: np.ndarray | None = field(default=None, metadata={"unit": "rad/s"})
@@ -268,6 +282,7 @@ class AttitudeEstimate(Estimate):
             mag_used_before_fit=self.mag_used_before_fit,
             pol_used=self.pol_used,
             pol_skipped=self.pol_skipped,
+            pol_branch_rms=self.pol_branch_rms,
             declination=self.declination,
         )
 
@@ -291,6 +306,7 @@ def summary_line(
     mag_hard_iron_from: int | None = None,
     mag_used_before_fit: bool = False,
     declination: float = 0.0,
+    pol_branch_rms=None,
 ) -> str:
     """One line on an estimate of ``n`` samples, starting with its :func:`variant`; ``rest``/``mag_used`` the
     fractions of samples at rest and with the magnetometer used, ``mag_offset_used`` of those used less a fitted
@@ -298,7 +314,9 @@ def summary_line(
     ``mag_hard_iron_from``, fitted online from past samples and used from that sample on, the field before it as
     measured with ``mag_used_before_fit``, else unused);
     ``mag_rows`` the rows holding a magnetometer sample: fewer than ``n`` (a slower magnetometer), the share is
-    of those; ``declination`` (rad, east positive) the one the magnetometer's heading was turned by (0: none)."""
+    of those; ``declination`` (rad, east positive) the one the magnetometer's heading was turned by (0: none);
+    ``pol_branch_rms`` (2,) rad: the AoP residual RMS from the heading branch the recording took and from the other
+    (None: none decided)."""
     pol_skipped = pol_skipped or {}
     skipped = sum(pol_skipped.values())
     s = f"{variant(method, offline=offline, input_stage=input_stage)}: {n} samples ({frame})"
@@ -329,6 +347,9 @@ def summary_line(
             s += f"; true heading (magnetic declination {abs(np.degrees(declination)):.2f}° {side})"
     if pol_used or skipped:
         s += f"; polarization used {pol_used}, skipped {skipped} " + str(pol_skipped)
+    if pol_branch_rms is not None:
+        a, b = np.degrees(pol_branch_rms)
+        s += f"; heading branch chosen by the data (AoP residual RMS {a:.2f}° against {b:.2f}° from 180° away)"
     return s
 
 
@@ -404,14 +425,30 @@ def _as_q0(q0) -> np.ndarray:
     return q / np.linalg.norm(q)
 
 
-def initial_attitude(
-    acc0, frame: str = DEFAULT_FRAME, pol: PolarizationMeasurement | None = None, index: int = 0
-) -> np.ndarray:
-    """q_b^n from one accelerometer sample (roll, pitch; yaw 0) and, if ``pol`` is usable at ``index``, the
-    heading that best explains its AoP.
+def _as_heading0(heading0) -> float | None:
+    """A filter's ``heading0`` (rad, a turn about up) as a finite float, or None."""
+    if heading0 is None:
+        return None
+    h = float(as_float_array(heading0, "heading0"))
+    if not np.isfinite(h):
+        raise OptinavError(f"heading0 = {heading0!r} is not finite", "pass a turn about up in rad, e.g. 0 or pi")
+    return h
 
-    A zenith-viewing sensor sees the same AoP at heading ψ and ψ + π; the branch with |ψ| ≤ 90° is taken (pass q0
-    to :func:`estimate` when the heading may be outside).
+
+def initial_attitude(
+    acc0,
+    frame: str = DEFAULT_FRAME,
+    pol: PolarizationMeasurement | None = None,
+    index: int = 0,
+    heading0: float = 0.0,
+    other_root: bool = False,
+) -> np.ndarray:
+    """q_b^n from one accelerometer sample (roll, pitch; yaw 0) turned about up by ``heading0`` and, if ``pol`` is
+    usable at ``index``, to the heading nearest that which explains its AoP.
+
+    A zenith-viewing sensor sees the same AoP at heading ψ and ψ + π (a tilted one at two headings): one sample
+    cannot tell the two branches apart. :func:`estimate` without q0 or a magnetometer runs from either and lets the
+    recording decide (:mod:`optinav.attitude.branch`); a streaming filter needs q0, ``heading0`` or a magnetometer.
 
     Parameters
     ----------
@@ -423,6 +460,12 @@ def initial_attitude(
         Polarization samples.
     index : int
         The sample of ``pol`` to use.
+    heading0 : float
+        A turn about the up direction [rad] (counter-clockwise seen from above) from the levelled attitude: the
+        AoP's heading nearest it is taken (0: the branch with |ψ| ≤ 90° of a level sensor).
+    other_root : bool
+        Take the AoP's other heading, the other branch (without a usable sample, or a second one: ``heading0`` +
+        π).
 
     Returns
     -------
@@ -440,16 +483,23 @@ def initial_attitude(
     else:  # RFU body, ENU convention C = Rz(ψ)Rx(θ)Ry(φ): a = g·[−sin φ cos θ, sin θ, cos φ cos θ]
         roll, pitch = np.arctan2(-u[0], u[2]), np.arctan2(u[1], np.hypot(u[0], u[2]))
     q = quat_from_euler([roll, pitch, 0.0], frame)
+    up = up_vector(frame)
+    turn = float(heading0) + (np.pi if other_root else 0.0)
     if pol is not None and pol.select(slice(index, index + 1)).usable()[0][0]:
-        up = up_vector(frame)
-        yaws = np.radians(np.arange(-180.0, 180.0, 0.5))
-        qs = quat_multiply(quat_from_rotvec(yaws[:, None] * up), q)
+        turns = np.radians(np.arange(-180.0, 180.0, 0.5))
+        qs = quat_multiply(quat_from_rotvec(turns[:, None] * up), q)
         sn = pol.sun_n[index if pol.sun_n.shape[0] > 1 else 0]
-        pred = predicted_aop(qs, sn, pol.C_b_m, frame)
-        best = yaws[np.argmin(np.abs(wrap_axial(pred - pol.aop[index])))]
-        if abs(best) > np.pi / 2:
-            best = best - np.sign(best) * np.pi
-        q = quat_multiply(quat_from_rotvec(best * up), q)
+        cost = np.abs(wrap_axial(predicted_aop(qs, sn, pol.C_b_m, frame) - pol.aop[index]))
+        best = turns[np.argmin(cost)]
+        off = np.angle(np.exp(1j * (best - heading0)))
+        if abs(off) > np.pi / 2:  # the half turn about up centred on heading0: a level sensor's roots are π apart
+            best -= np.sign(off) * np.pi
+        turn = best
+        if other_root:  # the AoP's other heading: of its error's minima about up the one farthest from that
+            low = np.flatnonzero((cost < np.roll(cost, 1)) & (cost <= np.roll(cost, -1)))
+            far = np.abs(np.angle(np.exp(1j * (turns[low] - best))))
+            turn = turns[low[np.argmax(far)]] if far.max() > np.pi / 4 else best + np.pi
+    q = quat_multiply(quat_from_rotvec(turn * up), q)
     return q / np.linalg.norm(q)
 
 
@@ -657,7 +707,11 @@ def estimate(
     """Attitude q_b^n of a recording as an :class:`AttitudeEstimate`; :func:`estimate_q` returns only ``q_b_n``.
 
     Without ``pol`` roll and pitch are observed and the heading follows the gyro, or the magnetometer (iframe).
-    Bad input raises :class:`OptinavError`.
+    With ``pol`` and neither ``q0`` nor a magnetometer field from its first sample, the AoP gives the heading up to
+    its branch (ψ or ψ + 180° for a level zenith-viewing sensor): iframe is run from either and the branch whose AoP
+    residuals are lower by more than the noise is taken (the summary says so, ``pol_branch_rms``); gd/cg/qn/mekf
+    start on it, from the start that holds it (:mod:`optinav.attitude.branch`). Branches alike (a level body) are
+    refused, naming ``q0``. Bad input raises :class:`OptinavError`.
 
     Parameters
     ----------
@@ -675,8 +729,8 @@ def estimate(
     frame : str
         Navigation frame, ``"ned"`` or ``"enu"``.
     q0 : (4,) array or None
-        Initial attitude q_b^n [-] ([w, x, y, z]); None: levelled from acc[0], heading from pol[0] if usable,
-        else 0.
+        Initial attitude q_b^n [-] ([w, x, y, z]); None: levelled from acc[0], heading from the polarization on
+        the branch the recording shows (above) or the field's, else 0.
     mag : (N, 3) array or None
         Magnetometer [any unit] (iframe): a magnetic heading, or the true one with the option ``declination``
         [rad, east positive] (docs/conventions.md).
@@ -728,13 +782,21 @@ def estimate(
     if offline and method != "iframe":
         raise OptinavError(f"method {method} has no offline mode", "use --method iframe with --offline")
     gaps = find_gaps(dts)
+    # polarization alone without q0: the heading's branch is the recording's to decide, from iframe's runs from
+    # either (optinav.attitude.branch); a magnetometer's field picks it as the estimate starts
+    decide = pol is not None and q0 is None and mag is None
+    branch_opts = opts if method == "iframe" else _options("iframe", {})
     ahead = None
-    if checks and method == "iframe" and mag is None and not gaps.size:
+    if checks and not gaps.size and (decide or method == "iframe" and mag is None):
         # the checks judge these inputs and change none of them: the estimate runs beside them (its kernel releases
         # the GIL; 1 M samples of BROAD 02: 0.42 s, the checks 0.18 s), kept only where they pass
         ahead = _beside(
-            lambda: run_iframe(
-                gyr, acc, dts, pol=pol, frame=frame, q0=None if q0 is None else _as_q0(q0), offline=offline, **opts
+            lambda: (
+                _branch_runs(gyr, acc, dts, pol, frame, branch_opts)
+                if decide
+                else run_iframe(
+                    gyr, acc, dts, pol=pol, frame=frame, q0=None if q0 is None else _as_q0(q0), offline=offline, **opts
+                )
             )
         )
     if checks:
@@ -870,6 +932,7 @@ def estimate(
 
         parts = [part(a, b) for a, b in zip(np.r_[0, gaps], np.r_[gaps, n])]
         first = parts[0]
+
         cat = lambda name: None if getattr(first, name) is None else np.concatenate([getattr(p, name) for p in parts])
         return _after(early, AttitudeEstimate(
             q_b_n=cat("q_b_n"),
@@ -894,12 +957,21 @@ def estimate(
             offline=offline,
             input_stage=first.input_stage,
             segments=len(parts),
+            pol_branch_rms=weakest(p.pol_branch_rms for p in parts),
         ))  # fmt: skip
+    other, branch_rms, r, ref = False, None, None, None
+    if pol is not None and q0 is None and mag is not None:  # a field that starts after the polarization does not
+        decide = not field_sets_branch(mag, pol.usable()[0])
+    if decide:
+        runs = ahead() if ahead is not None else _branch_runs(gyr, acc, dts, pol, frame, branch_opts)
+        k, branch_rms = _branch(runs, pol, frame)
+        other, ref = BRANCHES[k], None if branch_rms is None else runs[k].q_b_n
+        r = runs[k] if method == "iframe" and not offline and mag is None else None  # the estimate itself
+    elif ahead is not None:
+        r = ahead()
     if method == "iframe":
-        r = (
-            ahead()
-            if ahead is not None
-            else run_iframe(
+        if r is None:
+            r = run_iframe(
                 gyr,
                 acc,
                 dts,
@@ -908,9 +980,9 @@ def estimate(
                 frame=frame,
                 q0=None if q0 is None else _as_q0(q0),
                 offline=offline,
+                other_root=other,
                 **opts,
             )
-        )
         return _after(early, AttitudeEstimate(
             q_b_n=r.q_b_n,
             method=method,
@@ -930,18 +1002,38 @@ def estimate(
             acc_threshold_hits=int(np.count_nonzero(~r.acc_used)),
             pol_used=0 if r.pol_used is None else int(np.count_nonzero(r.pol_used)),
             pol_skipped=r.pol_skipped or {},
+            pol_branch_rms=branch_rms,
         ))  # fmt: skip
     front = None
     if input_stage:
         gyr, acc, front = _input_stage(gyr, acc, dts, frame=frame)
     use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, n, frame)
-    q = _as_q0(q0) if q0 is not None else initial_attitude(acc[0], frame, pol, 0)
-    state = _init_state(method, q, opts)
-    out = np.empty((n, 4))
-    std = np.empty((n, 3))
-    counts = np.zeros(3, dtype=np.int64)
-    _run(method, opts, state, gyr, acc, dts, up_vector(frame), use, sn, cbm, c2, s2, min_d2, out, std, counts,
-         bool(input_stage))  # fmt: skip
+
+    def run_from(q):
+        """The method from q_b^n ``q``: its end state, q_b^n (n, 4), σ (n, 3) and counts."""
+        state, out, std, counts = (
+            _init_state(method, q, opts),
+            np.empty((n, 4)),
+            np.empty((n, 3)),
+            np.zeros(3, np.int64),
+        )
+        _run(method, opts, state, gyr, acc, dts, up_vector(frame), use, sn, cbm, c2, s2, min_d2, out, std, counts,
+             bool(input_stage))  # fmt: skip
+        return state, out, std, counts
+
+    if ref is None:
+        state, out, std, counts = run_from(_as_q0(q0) if q0 is not None else initial_attitude(acc[0], frame, pol, 0))
+    else:
+        # from the start on the branch iframe's AoP residuals took, or where it does not hold it, from the other:
+        # the other methods' tilt sees the AoP (started in fast motion mekf traded 54° of tilt for the other
+        # branch's AoP)
+        held = HeldBranch(n)
+        for j in (k, 1 - k):
+            state, out, std, counts = run_from(initial_attitude(acc[0], frame, pol, 0, other_root=BRANCHES[j]))
+            held.add(j, out, [ref])
+            if held.share(j) >= MIN_HELD:
+                break
+        held.verdict(method, prefer=k)
     if pol is not None:
         skipped = dict(skipped)
         skipped["sun_near_sensor_zenith"] = int(counts[_kernels.C_POL_NEAR_ZENITH])
@@ -960,7 +1052,22 @@ def estimate(
         gyr_bias=bias,
         rest=None if front is None else front.rest,
         input_stage=input_stage,
+        pol_branch_rms=branch_rms,
     )
+
+
+def _branch_runs(gyr, acc, dts, pol, frame: str, opts: dict) -> list[FilterRun]:
+    """iframe online from either heading branch (:data:`~optinav.attitude.branch.BRANCHES`), with ``opts``."""
+    return [run_iframe(gyr, acc, dts, pol=pol, frame=frame, other_root=b, **opts) for b in BRANCHES]
+
+
+def _branch(runs: list[FilterRun], pol: PolarizationMeasurement, frame: str) -> tuple[int, np.ndarray | None]:
+    """The branch of :func:`_branch_runs` the recording's AoP takes and the residual RMS (2,) rad of it and of the
+    other (:meth:`~optinav.attitude.branch.BranchResiduals.verdict`; refused when alike)."""
+    use, sn, cbm, aop, min_d2, _ = pol_inputs(pol, runs[0].q_b_n.shape[0], frame, "the IMU")
+    res = BranchResiduals(cbm, min_d2, up_vector(frame))
+    res.add(runs[0].q_b_n, runs[1].q_b_n, use, sn, aop)
+    return res.verdict()
 
 
 def _after(early: AttitudeEstimate | None, est: AttitudeEstimate) -> AttitudeEstimate:
@@ -1008,7 +1115,10 @@ class _Filter(StreamGaps):
     """Streaming attitude filter running the same kernel as :func:`estimate`: :meth:`update` one sample,
     :meth:`update_batch` a chunk, :meth:`reset` a new start; ``rate_hz`` [Hz] or ``dt`` [s] gives the default step
     (as :class:`~optinav.attitude.AttitudeFilter`, and a time gap is refused as there); ``input_stage`` as
-    :func:`estimate` (default on; False: the method exactly as published)."""
+    :func:`estimate` (default on; False: the method exactly as published). With polarization the heading's branch
+    must be known before the first sample it corrects (the outputs cannot wait for the data to decide, as
+    :func:`estimate` does): ``q0``, or ``heading0`` (rad, a turn about up from the levelled start:
+    :func:`initial_attitude` takes the AoP's heading within 90° of it); else that sample is refused."""
 
     METHOD = "qn"
 
@@ -1024,6 +1134,7 @@ class _Filter(StreamGaps):
         min_dop: float = 0.05,
         min_sun_separation: float = np.radians(10.0),
         input_stage: bool = True,
+        heading0: float | None = None,
         **options,
     ):
         self.dt = default_step(rate_hz, dt)
@@ -1038,6 +1149,8 @@ class _Filter(StreamGaps):
         self.C_b_m = as_c_b_m(C_b_m, self.frame)  # a bad mounting fails here, not at the first sample
         self._pol_kw = dict(min_sun_elevation=min_sun_elevation, min_dop=min_dop, min_sun_separation=min_sun_separation)
         self._q0 = None if q0 is None else _as_q0(q0)
+        self._heading0 = _as_heading0(heading0)
+        self._other_root = False  # the start takes the AoP's other root (a log's decision: the other branch)
         self.state = None
         self.counts = np.zeros(3, dtype=np.int64)
         self._skipped: dict[str, int] = {}
@@ -1051,7 +1164,7 @@ class _Filter(StreamGaps):
         """Current q_b^n (None before the first update)."""
         return None if self.state is None else self.state[:4].copy()
 
-    def reset(self, q0=None) -> None:
+    def reset(self, q0=None, heading0: float | None = None) -> None:
         """Start the estimate anew (after a time gap, or a new recording), its input stage too; the counts of
         :attr:`pol_skipped` go on.
 
@@ -1059,8 +1172,12 @@ class _Filter(StreamGaps):
         ----------
         q0 : (4,) array or None
             q_b^n [w, x, y, z] [-] to start from; None: levelled from the next sample's accelerometer.
+        heading0 : float or None
+            Without ``q0``: the turn about up [rad] the levelled start takes, the polarization's heading branch
+            (as the constructor's).
         """
         self.state, self._q0 = None, None if q0 is None else _as_q0(q0)
+        self._heading0, self._other_root = _as_heading0(heading0), False
         if self._front is not None:
             self._front.reset()
         self._gaps_init()
@@ -1072,6 +1189,25 @@ class _Filter(StreamGaps):
         if not self._pol_seen:
             return dict(self._skipped)
         return {**self._skipped, "sun_near_sensor_zenith": int(self.counts[_kernels.C_POL_NEAR_ZENITH])}
+
+    def _check_branch(self, pol) -> None:
+        """Refuse a usable polarization sample in ``pol`` (before any state changes) while neither q0 nor heading0
+        fixed the heading's branch."""
+        if isinstance(pol, PolarizationMeasurement) and self._q0 is None and self._heading0 is None:
+            if pol.usable()[0].any():
+                raise stream_branch_error()
+
+    def _decided(self, other_root: bool) -> None:
+        """Before the first sample, the heading branch a log's runs from either decided
+        (:mod:`optinav.attitude.branch`): the start takes the AoP's heading nearest the levelled one, or with
+        ``other_root`` the other one."""
+        self._heading0, self._other_root = 0.0, bool(other_root)
+
+    def _start(self, acc0, pol) -> np.ndarray:
+        """q_b^n to start from at the first sample (``acc0`` its specific force after the input stage, m/s²)."""
+        if self._q0 is not None:
+            return self._q0
+        return initial_attitude(acc0, self.frame, pol, 0, self._heading0 or 0.0, self._other_root)
 
     def _add_skipped(self, skipped: dict, pol) -> None:
         self._pol_seen = self._pol_seen or pol is not None
@@ -1149,12 +1285,12 @@ class _Filter(StreamGaps):
             self._judge_gap(float(h))
         dts = _as_dt(h, 1)
         pol = None if pol_sample is None else one_pol_sample(pol_sample, self.C_b_m, self.frame, self._pol_kw)
+        self._check_branch(pol)
         g, a, _ = self._front_step(np.ascontiguousarray(g), np.ascontiguousarray(a), dts)
         use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, 1, self.frame)
         self._add_skipped(skipped, pol)
         if self.state is None:
-            q = self._q0 if self._q0 is not None else initial_attitude(a[0], self.frame, pol, 0)
-            self.state = _init_state(self.METHOD, q, self.options)
+            self.state = _init_state(self.METHOD, self._start(a[0], pol), self.options)
         _run(self.METHOD, self.options, self.state, g, a, dts, self._un, use, sn, cbm, c2, s2, min_d2, self._out,
              self._std, self.counts, self.input_stage)  # fmt: skip
         self._prev = float(dts[-1])
@@ -1197,12 +1333,12 @@ class _Filter(StreamGaps):
             return FilterRun(np.empty((0, 4)), rest, gyr_bias=bias, att_std=rows.copy() if mekf else None)
         dts = _as_dt(self._step(dt), n)
         self._chunk_gaps(dts)
+        self._check_branch(pol)
         g, a, front = self._front_step(g, a, dts)
         use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, n, self.frame)
         self._add_skipped(skipped, pol)
         if self.state is None:
-            q = self._q0 if self._q0 is not None else initial_attitude(a[0], self.frame, pol, 0)
-            self.state = _init_state(self.METHOD, q, self.options)
+            self.state = _init_state(self.METHOD, self._start(a[0], pol), self.options)
         out, std, own = np.empty((n, 4)), np.empty((n, 3)), np.empty((n, 3)) if mekf else _NO_ROWS
         _run(self.METHOD, self.options, self.state, g, a, dts, self._un, use, sn, cbm, c2, s2, min_d2, out, std,
              self.counts, self.input_stage, own)  # fmt: skip
@@ -1278,8 +1414,8 @@ for _v in (2, 3, 4):  # 2, 3: arrays as {"__ndarray__"}; 4: plain arrays
         AttitudeEstimate, "optinav.attitude.estimate", _v, lambda d: nested_kwargs(AttitudeEstimate, d, _V4_NAMES)
     )
 # 5: before mag_offset_used (None: not reported); 6: before mag_hard_iron (None: none subtracted); 7: before
-# mag_hard_iron_from (None: not fitted online)
-for _v in (5, 6, 7):
+# mag_hard_iron_from (None: not fitted online); 8: before pol_branch_rms (None: not decided)
+for _v in (5, 6, 7, 8):
     register_legacy(AttitudeEstimate, "optinav.attitude.estimate", _v, lambda d: nested_kwargs(AttitudeEstimate, d))
 
 

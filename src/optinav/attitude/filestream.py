@@ -104,6 +104,8 @@ class StreamedEstimate:
     mag_hard_iron_from: int | None = None
     mag_used_before_fit: bool = False  # the field as measured before mag_hard_iron_from (else unused)
     declination: float = 0.0  # rad, east positive: the magnetometer's heading turned by it to the true one
+    #: rad, the AoP residual RMS of the heading branch the data chose and of the other (None: not decided)
+    pol_branch_rms: np.ndarray | None = None
 
     @property
     def SCHEMA(self) -> str:  # noqa: N802 - the attribute every result has
@@ -768,9 +770,117 @@ class _Scratch:
         return np.ascontiguousarray(rows[:, self.cols[name]])
 
 
+def _block_pol(pol: PolColumns | None, extra: dict, t: np.ndarray, t_first: float, frame: str):
+    """The :class:`~optinav.attitude.PolarizationMeasurement` of a block's polarization columns (``extra``, times
+    ``t`` s of a log starting at ``t_first``), or None without them."""
+    if pol is None:
+        return None
+    from optinav.attitude.measurement import PolarizationMeasurement
+
+    aop = np.radians(extra["aop"]) if pol.aop_unit == "deg" else extra["aop"]
+    return PolarizationMeasurement(aop, pol.sun(t, t_first), dop=extra.get("dop"), frame=frame, min_dop=pol.min_dop)
+
+
+def _cut(checks, row0: int, dts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rows of a block (from ``row0``) where a time gap starts a new segment, and its steps ``dts`` (s) with
+    each segment's first the median one."""
+    gaps = checks.gaps
+    cuts = gaps[(gaps >= row0) & (gaps < row0 + len(dts))] - row0
+    dts = dts.copy()
+    dts[cuts] = checks.median_dt
+    return cuts, dts
+
+
+class _BranchSegment:
+    """One segment's runs of iframe online (options ``opts``) from either heading branch
+    (:data:`~optinav.attitude.branch.BRANCHES`; :func:`~optinav.attitude.iframe.run_iframe`'s kernel with the
+    states carried block by block): their AoP residuals, and the segment's first usable polarization row and first
+    row with a field (relative to the segment). ``method``: (name, filter options) of gd/cg/qn/mekf, run from
+    either start too (:class:`~optinav.attitude.branch.HeldBranch` over the segment's ``n`` rows), or None."""
+
+    def __init__(self, frame: str, opts: dict, method=None, n: int = 0):
+        from optinav.attitude import iframe as _if
+        from optinav.attitude.branch import BRANCHES, HeldBranch
+        from optinav.attitude.estimators import make_filter
+
+        self.frame, self.par = frame, _if._params(frame, opts)
+        self.states = [_if._new_state(opts, None, other_root=b) for b in BRANCHES]
+        self.res, self.n, self.pol_row, self.mag_row = None, 0, None, None
+        self.method = None if method is None else method[0]
+        self.tries = [] if method is None else [make_filter(method[0], **method[1]) for _ in BRANCHES]
+        for f, b in zip(self.tries, BRANCHES):
+            f._decided(b)
+            f._gap_check = False  # the file's gaps are cut by the caller
+        self.held = HeldBranch(n, refs=2)
+
+    def add(self, gyr, acc, dts, pin, pm=None, mag=None) -> None:
+        """A block: gyr, acc (n, 3), dts (n,) s, ``pin`` its polarization's kernel inputs (``pol_inputs``) and ``pm``
+        the measurement (for gd/cg/qn/mekf), ``mag`` (n, 3) or None (only where its field starts)."""
+        from optinav.attitude import iframe as _if
+        from optinav.attitude.branch import BranchResiduals
+        from optinav.attitude.measurement import up_vector
+
+        runs = [_if._run_pol(st, self.par, gyr, acc, np.zeros((0, 3)), dts, pin).q_b_n for st in self.states]
+        use, sn, cbm, aop, min_d2 = pin[:5]
+        if self.res is None:
+            self.res = BranchResiduals(cbm, min_d2, up_vector(self.frame))
+        self.res.add(runs[0], runs[1], use, sn, aop)
+        if self.tries:
+            for j, f in enumerate(self.tries):
+                self.held.add(j, f.update_batch(gyr, acc, dts, pol=pm).q_b_n, runs)
+        if self.pol_row is None and use.any():
+            self.pol_row = self.n + int(np.argmax(use))
+        if mag is not None and self.mag_row is None and np.isfinite(mag).all(axis=1).any():
+            self.mag_row = self.n + int(np.argmax(np.isfinite(mag).all(axis=1)))
+        self.n += len(dts)
+
+    def branch(self, fixed: bool, field: bool):
+        """The :class:`~optinav.attitude.branch.Branch` its AoP takes (refused when alike, or when gd/cg/qn/mekf hold
+        it from neither start), or None where ``fixed`` (q0), where no polarization sample was usable, or where a
+        field (``field``: the magnetometer's, not fitted online) came with or before the first."""
+        from optinav.attitude.branch import BRANCHES, Branch
+
+        if fixed or self.pol_row is None or field and self.mag_row is not None and self.mag_row <= self.pol_row:
+            return None
+        k, rms = self.res.verdict()
+        if self.tries and rms is not None:
+            k = self.held.verdict(self.method, k, prefer=k)
+        return Branch(BRANCHES[k], rms)
+
+
+def _branch_pass(src, checks, frame: str, q0, pol, t_first: float, opts: dict, online_fit: bool, progress, method=None):
+    """The heading branch of each segment of an online log with polarization (:mod:`optinav.attitude.branch`), by
+    a pass of iframe (options ``opts``) from either branch over the blocks (and of gd/cg/qn/mekf, ``method``: (name,
+    filter options), from either start), which is also the second pass of the ``checks`` (collected and finished
+    here, so their errors come first as in the in-memory estimate). Returns the segments'
+    :class:`~optinav.attitude.branch.Branch` (None where nothing was decided) and the residual RMS (2,) rad the
+    summary names (:func:`~optinav.attitude.branch.weakest`)."""
+    from optinav.attitude.branch import weakest
+    from optinav.attitude.measurement import pol_inputs
+    from optinav.core.progress import progress_blocks
+
+    segs: list[_BranchSegment] = []
+    rows = np.diff(np.r_[0, checks.gaps, checks.n])  # each segment's
+    for row0, t, gyr, acc, dts, _, extra in progress_blocks(src, "attitude: heading branch", progress):
+        checks.collect(row0, gyr, acc, dts)
+        pm, mag = _block_pol(pol, extra, t, t_first, frame), extra.get("mag")
+        cuts, dts = _cut(checks, row0, dts)
+        for k, (a, b) in enumerate(zip(np.r_[0, cuts], np.r_[cuts, len(t)])):
+            if k or not segs:
+                segs.append(_BranchSegment(frame, opts, method, int(rows[len(segs)])))
+            if b > a:
+                p = pm.select(slice(a, b))
+                pin = pol_inputs(p, b - a, frame, "the IMU")
+                segs[-1].add(gyr[a:b], acc[a:b], dts[a:b], pin, p, None if mag is None else mag[a:b])
+    checks.finish_second(frame)
+    field = bool(src.mag) and not online_fit  # an offset fitted online leaves the field unused until it passes
+    branches = [seg.branch(i == 0 and q0 is not None, field) for i, seg in enumerate(segs)]
+    return branches, weakest(b.rms for b in branches if b is not None)
+
+
 def _stream_offline(
     src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points=0, truth=None, hard_iron=(None, False),
-    pol=None, t_first=0.0,
+    pol=None, t_first=0.0, branch_opts=None,
 ) -> StreamRun:  # fmt: skip
     """``--offline`` of a log read block by block: the second pass over the file keeps the inputs in a scratch
     file beside ``out`` (None: in the temporary folder), the magnetometer less ``hard_iron`` ((offset or None,
@@ -781,7 +891,8 @@ def _stream_offline(
     from optinav.attitude.estimators import summary_line
     from optinav.attitude._iframe import POL_USED
     from optinav.attitude.iframe import pol_skipped
-    from optinav.attitude.measurement import PolarizationMeasurement, pol_inputs
+    from optinav.attitude.branch import weakest
+    from optinav.attitude.measurement import pol_inputs
     from optinav.attitude.methods import IFRAME_DEFAULTS, _options
     from optinav.core.files import scratch_file
     from optinav.core.progress import progress_blocks
@@ -821,10 +932,7 @@ def _stream_offline(
                 if "mag" in more and hard_iron[0] is not None:
                     more["mag"] = more["mag"] - hard_iron[0]
                 if pol is not None:
-                    aop = np.radians(extra["aop"]) if pol.aop_unit == "deg" else extra["aop"]
-                    pm = PolarizationMeasurement(
-                        aop, pol.sun(t, t_first), dop=extra.get("dop"), frame=frame, min_dop=pol.min_dop
-                    )
+                    pm = _block_pol(pol, extra, t, t_first, frame)
                     use, sn, cbm, a0, min_d2, sk = pol_inputs(pm, len(t), frame, "the IMU")
                     pol_const = cbm, min_d2
                     skipped = {k: skipped.get(k, 0) + v for k, v in sk.items()}
@@ -845,9 +953,25 @@ def _stream_offline(
                 row[0, store.cols["dts"]] = checks.median_dt
                 store.write(int(i), row)
         bounds = list(zip(np.r_[0, gaps], np.r_[gaps, store.n]))
-        lat = 0.0
+        lat, rms = 0.0, []
         for k, (a, b) in enumerate(bounds):
-            lat = _offline_segment(store, int(a), int(b), opts, frame, q0 if k == 0 else None, blk, pol_const)
+            branch = None
+            if branch_opts is not None and pol_const is not None and not (k == 0 and q0 is not None):
+                seg = _BranchSegment(frame, branch_opts)  # the segment's heading branch, from the inputs kept
+                for s in range(int(a), int(b), blk):
+                    r = store.read(s, min(s + blk, int(b)))
+                    mag = store.col(r, "mag") if src.mag else None
+                    seg.add(
+                        store.col(r, "gyr"),
+                        store.col(r, "acc"),
+                        store.col(r, "dts")[:, 0],
+                        _store_pin(store, r, pol_const),
+                        mag=mag,
+                    )
+                branch = seg.branch(False, bool(src.mag))
+                rms.append(None if branch is None else branch.rms)
+            other = branch is not None and branch.other_root
+            lat = _offline_segment(store, int(a), int(b), opts, frame, q0 if k == 0 else None, blk, pol_const, other)
         rest = mag_used = acc_hits = mag_rows = pol_used = 0
         left = {}  # the polarization samples neither pass used, by the forward pass's reason (iframe.pol_skipped)
         fig = _Decimated(store.n, figure_points) if figure_points else None
@@ -904,12 +1028,13 @@ def _stream_offline(
         declination=opts["declination"],
         pol_used=pol_used,
         pol_skipped=skipped,
+        pol_branch_rms=weakest(rms),
     )
     est = StreamedEstimate(
         "iframe", frame, line, acc_threshold_hits=acc_hits, gyr_bias=bias, mag_used=mag_used if src.mag else None,
         mag_rows=mag_rows if src.mag else None, offline=True, pol_used=pol_used, pol_skipped=skipped,
         mag_hard_iron=None if hard_iron[0] is None or not src.mag else np.asarray(hard_iron[0], float),
-        declination=opts["declination"],
+        declination=opts["declination"], pol_branch_rms=weakest(rms),
     )  # fmt: skip
     if truth is not None:
         est.truth_comparison = truth.result(est, n)
@@ -937,14 +1062,22 @@ def _free_bytes(path) -> float:
         return float("inf")
 
 
-def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0, blk: int, pol=None) -> float:
+def _store_pin(store: _Scratch, r: np.ndarray, pol) -> tuple:
+    """The polarization's kernel inputs (:func:`~optinav.attitude.measurement.pol_inputs`) of the rows ``r`` of
+    ``store``, ``pol`` (C_b^m, min_d2) the sensor's."""
+    return store.col(r, "puse")[:, 0] != 0.0, store.col(r, "sun"), pol[0], store.col(r, "aop")[:, 0], pol[1], {}
+
+
+def _offline_segment(
+    store: _Scratch, a: int, b: int, opts: dict, frame: str, q0, blk: int, pol=None, other_root: bool = False
+) -> float:
     """:func:`optinav.attitude.iframe.run_iframe` with ``offline=True`` on the rows [a, b) of ``store``, in
     blocks of ``blk`` rows with the states carried: the forward pass, the backward pass over the reversed rows
     (fused with the forward one), and the zero-phase tilt refinement (strapdown, then the forward–backward
     Butterworth filter as ``scipy.signal.filtfilt`` computes it, from the padded ends). Leaves the smoothed q,
     the bias and the flags (rest, acc used, mag used; the polarization's outcome in "pol") in ``store``; returns
     the latency still to apply (s). ``pol``: (C_b^m, min_d2) of the polarization sensor whose inputs ``store``
-    holds, or None."""
+    holds, or None; ``other_root``: without ``q0``, start on the AoP's other heading branch (the one decided)."""
     from scipy.signal import lfilter, lfilter_zi
 
     from optinav.attitude import _iframe as _k
@@ -963,10 +1096,10 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         """The rows' polarization inputs (iframe.run_iframe's), reversed for the backward pass; None without."""
         if pol is None:
             return None
-        p = (col(r, "puse")[:, 0] != 0.0, col(r, "sun"), pol[0], col(r, "aop")[:, 0], pol[1], {})
+        p = _store_pin(store, r, pol)
         return _if.reversed_pol(p) if reverse else p
 
-    st = _if._new_state(opts, None if q0 is None else _as_q0(q0))
+    st = _if._new_state(opts, None if q0 is None else _as_q0(q0), other_root=other_root)
     finite = True
     t_run, h_last = 0.0, 0.0  # the elapsed time at the last row and the last step (s): the fusion weights
     t_pol = None  # the elapsed time of the forward pass's first polarization sample used
@@ -1238,6 +1371,8 @@ def stream_attitude(
     if want_mag and method != "iframe":
         raise OptinavError(f"method {method} takes no magnetometer", "use --method iframe with --mag-columns")
     StreamEstimator.check(method, o.options)
+    # iframe's options for the runs from either heading branch (the estimate's own where it is iframe)
+    branch_opts = _options("iframe", dict(o.options) if method == "iframe" else {})
     # a simulator's truth CSV holds q_b_n of the frame its STEM.truth.json names (the CSV does not say it)
     tf = None if truth is None else truth_frame(getattr(truth, "truth", truth), frame)
     src = _Blocks(
@@ -1254,6 +1389,7 @@ def stream_attitude(
 
     step("checks")
     checks, bad, aop_lo, aop_hi, aop_n, t_first, t_last = StreamChecks(), 0, np.inf, -np.inf, 0, None, None
+    first = {}  # the first row with an AoP ("aop") and with a field ("mag"): whether the field sets the branch
     checks.bias_clip, checks.method = bias_clip(method, _options(method, dict(o.options)), o.input_stage), method
     for _, t, gyr, acc, dts, finite, extra in progress_blocks(src, "attitude: checks", progress):
         if t_first is None:
@@ -1270,6 +1406,9 @@ def stream_attitude(
             a = extra["aop"][np.isfinite(extra["aop"])]
             if a.size:
                 aop_lo, aop_hi, aop_n = min(aop_lo, float(a.min())), max(aop_hi, float(a.max())), aop_n + a.size
+            for key, rows in (("aop", np.isfinite(extra["aop"])), ("mag", np.isfinite(extra.get("mag", [])))):
+                if key not in first and rows.size and rows.reshape(len(t), -1).all(axis=1).any():
+                    first[key] = checks.n - len(t) + int(np.argmax(rows.reshape(len(t), -1).all(axis=1)))
     if bad:
         raise OptinavError(*nan_rows_error(path, bad))
     if pol is not None and aop_n:
@@ -1295,16 +1434,29 @@ def stream_attitude(
     score = _Score(frame) if reference or truth_csv is not None else None
     tcmp = None if truth is None else _TruthSeries(truth, frame)
     duration = 0.0 if t_first is None else t_last - t_first
-    # the estimators (numba kernels) load only now, so that a bad file is reported within a second of start
-    from optinav.attitude.measurement import PolarizationMeasurement
-
+    # polarization without q0 (or after a time gap) and without a field that starts with it: runs of iframe from
+    # either heading branch decide each segment's (optinav.attitude.branch); online a pass of its own, which is
+    # the checks' second too, offline over the inputs kept
+    late_field = "mag" in first and first["mag"] > first.get("aop", np.inf)
+    fixed = q0 is not None and not gaps.size or src.mag and not (online_fit or gaps.size or late_field)
+    decide = pol is not None and "aop" in first and not fixed
+    # the estimators (numba kernels) load only from here, so that a bad file is reported within a second of start
     if o.offline:
         step("estimate (iframe offline), write")
         run = _stream_offline(
             src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points, tcmp, (hard_iron, fitted),
-            pol, t_first,
+            pol, t_first, branch_opts if decide else None,
         )  # fmt: skip
         return dataclasses.replace(run, duration_s=duration)
+    branches, branch_rms, collected = [], None, False
+    if decide and not (gaps.size and not o.allow_gaps):
+        step("heading branch")
+        # gd/cg/qn/mekf from either start: the one that holds the branch (their filters as the estimate's)
+        tries = None if method == "iframe" else (method, dict(o.options, frame=frame, input_stage=o.input_stage))
+        branches, branch_rms = _branch_pass(
+            src, checks, frame, q0, pol, t_first, branch_opts, online_fit, progress, tries
+        )
+        collected = True
     estimator = StreamEstimator(
         method,
         frame=frame,
@@ -1313,26 +1465,21 @@ def stream_attitude(
         mag_hard_iron=hard_iron,
         mag_hard_iron_online=online_fit,
         mag_measured_before_fit=online_fit and checks.hard_iron_measured,
+        branches=branches,
+        branch_rms=branch_rms,
         **dict(o.options),
     )
     step(f"estimate ({method}), write")  # one pass does both
     fig = _Decimated(checks.n, figure_points) if figure_points else None
     with _rows_writer(out) as write:
         for row0, t, gyr, acc, dts, _, extra in progress_blocks(src, f"attitude: {method}", progress):
-            checks.collect(row0, gyr, acc, dts)
+            if not collected:
+                checks.collect(row0, gyr, acc, dts)
             if gaps.size and not o.allow_gaps:
                 continue  # refused below, after the checks that come first
-            pm = None
-            if pol is not None:
-                aop = np.radians(extra["aop"]) if pol.aop_unit == "deg" else extra["aop"]
-                pm = PolarizationMeasurement(
-                    aop, pol.sun(t, t_first), dop=extra.get("dop"), frame=frame, min_dop=pol.min_dop
-                )
+            pm = _block_pol(pol, extra, t, t_first, frame)
             mag = extra.get("mag")
-            # a time gap starts a new segment whose first step is the median one
-            cuts = gaps[(gaps >= row0) & (gaps < row0 + len(t))] - row0
-            dts = dts.copy()
-            dts[cuts] = checks.median_dt
+            cuts, dts = _cut(checks, row0, dts)
             qs = []
             for k, (a, b) in enumerate(zip(np.r_[0, cuts], np.r_[cuts, len(t)])):
                 if k:
@@ -1355,7 +1502,8 @@ def stream_attitude(
                 fig.add(row0, rows, errs)
             if tcmp is not None:
                 tcmp.add(row0, q)
-        checks.finish_second(frame)
+        if not collected:
+            checks.finish_second(frame)
         if online_fit and estimator.mag_hard_iron_from is None and not (gaps.size and not o.allow_gaps):
             raise checks.online_fit_failed()
         held = estimator.mag_hard_iron_held
@@ -1407,4 +1555,5 @@ def _estimate(e: StreamEstimator) -> StreamedEstimate:
         mag_hard_iron_from=e.mag_hard_iron_from,
         mag_used_before_fit=e.mag_used_before_fit,
         declination=e.declination,
+        pol_branch_rms=e.branch_rms,
     )

@@ -148,12 +148,16 @@ def _params(frame: str, opts: dict) -> np.ndarray:
     return p
 
 
-def _new_state(opts: dict, q0=None) -> np.ndarray:
+def _new_state(opts: dict, q0=None, heading0: float = 0.0, other_root: bool = False) -> np.ndarray:
+    """A state before the first sample: from ``q0`` (q_g = identity, q_c = q0, δ = 0; the filter memories from
+    acc[0]), else levelled then, δ = ``heading0`` (rad, a turn about up: the polarization's first used sample takes
+    the AoP's root nearest it, or with ``other_root`` the other one, the other heading branch)."""
     st = np.zeros(_k.STATE_SIZE)
     st[_k.S_P : _k.S_P + 9] = (np.eye(3) * opts["bias_sigma0"] ** 2).ravel()
     if q0 is not None:
-        # start from q0: q_g = identity, q_c = q0 without heading (δ carries it); filter memories from acc[0]
         st[_k.S_QC : _k.S_QC + 4] = q0
+    else:
+        st[_k.S_DELTA], st[_k.S_P_OTHER] = heading0, float(other_root)
     return st
 
 
@@ -366,11 +370,22 @@ def _fuse(qf, qb, share):
 
 
 def run_iframe(
-    gyr, acc, dts, *, mag=None, pol=None, frame: str = DEFAULT_FRAME, q0=None, offline: bool = False, **options
+    gyr,
+    acc,
+    dts,
+    *,
+    mag=None,
+    pol=None,
+    frame: str = DEFAULT_FRAME,
+    q0=None,
+    offline: bool = False,
+    other_root: bool = False,
+    **options,
 ) -> FilterRun:
     """Run the estimator on checked (N, 3) float arrays; ``dts`` (1,) or (N,) s; ``mag`` (N, 3) any unit or
-    None; ``pol`` a :class:`~optinav.attitude.PolarizationMeasurement` or None. Options override
-    :data:`IFRAME_DEFAULTS`."""
+    None; ``pol`` a :class:`~optinav.attitude.PolarizationMeasurement` or None; without ``q0`` the polarization's
+    first used sample takes the AoP's root nearest the start's heading, or with ``other_root`` the other one (the
+    other heading branch, :mod:`optinav.attitude.branch`). Options override :data:`IFRAME_DEFAULTS`."""
     from optinav.attitude.measurement import pol_inputs
 
     opts = dict(IFRAME_DEFAULTS)
@@ -380,14 +395,14 @@ def run_iframe(
     n = gyr.shape[0]
     pin = None if pol is None else pol_inputs(pol, n, frame, "the IMU")
     if not offline:
-        r = _pass(_new_state(opts, q0), par, gyr, acc, m, dts, pin)
+        r = _pass(_new_state(opts, q0, other_root=other_root), par, gyr, acc, m, dts, pin)
         r.mag_used = None if mag is None else r.mag_used
         return r
     # the passes estimate the attitude at the sample times; the latency is applied once, to the smoothed result
     lat = par[_k.P_LATENCY]
     par[_k.P_LATENCY] = 0.0
     code = np.empty(n, np.int8)
-    fwd = _pass(_new_state(opts, q0), par, gyr, acc, m, dts, pin, code)
+    fwd = _pass(_new_state(opts, q0, other_root=other_root), par, gyr, acc, m, dts, pin, code)
     # the reversed recording sees the gyro negated, so its bias is −b: start the backward pass from the forward
     # end state with the bias negated, and negate it back; the backward bias at t has seen the whole recording
     # (the forward pass's end state and the samples from t on), the forward one only the samples before t. The
@@ -693,7 +708,9 @@ class AttitudeFilter(StreamGaps):
     :attr:`gyr_bias` (rad/s), :attr:`acc_used`, :attr:`mag_used` (None before the first); ``update`` itself returns
     None (a copy of q would cost a third of its time: read :attr:`q_b_n`). :meth:`update_batch` runs chunks with
     the same arithmetic as :func:`optinav.attitude.estimate` and returns a :class:`FilterRun`, as every method's
-    filter does.
+    filter does. With polarization the heading's branch must be known before its first sample is used (a stream's
+    outputs cannot wait for the data to decide, as the estimate does): ``q0``, ``heading0`` (rad, δ about up: the
+    AoP's root nearest it) or a magnetometer sample at or before it; else that chunk is refused.
     """
 
     def __init__(
@@ -709,9 +726,10 @@ class AttitudeFilter(StreamGaps):
         min_sun_elevation: float = 0.0,
         min_dop: float = 0.05,
         min_sun_separation: float = math.radians(10.0),
+        heading0: float | None = None,
         **options,
     ):
-        from optinav.attitude.estimators import _as_q0, _hard_iron, _options, default_step
+        from optinav.attitude.estimators import _as_heading0, _as_q0, _hard_iron, _options, default_step
         from optinav.attitude.measurement import as_c_b_m
 
         self.frame = frame_name(frame)
@@ -727,7 +745,8 @@ class AttitudeFilter(StreamGaps):
         self._hi = None if self._given is None else tuple(float(v) for v in self._given)
         self._fit = online_fit_state(mag_measured_before_fit) if online else None
         self._fit_step = _k.fitted_sample
-        self._state = _new_state(self.options, None if q0 is None else _as_q0(q0))
+        self._branch = q0 is not None or heading0 is not None  # the polarization's heading branch is fixed
+        self._state = _new_state(self.options, None if q0 is None else _as_q0(q0), _as_heading0(heading0) or 0.0)
         # views of the state's q and bias: a read copies them without slicing (the state is never replaced)
         self._q, self._bias = self._state[_k.S_Q : _k.S_Q + 4], self._state[_k.S_BIAS : _k.S_BIAS + 3]
         self._step = _k.step
@@ -735,7 +754,7 @@ class AttitudeFilter(StreamGaps):
         self._step9 = _k.step9
         self._gaps_init()
 
-    def reset(self, q0=None) -> None:
+    def reset(self, q0=None, heading0: float | None = None) -> None:
         """Start the estimate anew (after a time gap, or a new recording): the state as built. The options, the
         hard-iron offset given, and one fitted online (a property of the sensor, as
         :func:`~optinav.attitude.estimate` keeps it across gaps) stay.
@@ -744,11 +763,34 @@ class AttitudeFilter(StreamGaps):
         ----------
         q0 : (4,) array or None
             q_b^n [w, x, y, z] [-] to start from; None: levelled from the next sample's accelerometer.
+        heading0 : float or None
+            Without ``q0``: the heading correction δ [rad, about up] to start from, the polarization's heading
+            branch (as the constructor's).
         """
-        from optinav.attitude.estimators import _as_q0
+        from optinav.attitude.estimators import _as_heading0, _as_q0
 
-        self._state[:] = _new_state(self.options, None if q0 is None else _as_q0(q0))
+        self._branch = q0 is not None or heading0 is not None
+        self._state[:] = _new_state(self.options, None if q0 is None else _as_q0(q0), _as_heading0(heading0) or 0.0)
         self._gaps_init()
+
+    def _decided(self, other_root: bool) -> None:
+        """Before the first sample, the heading branch a log's runs from either decided
+        (:mod:`optinav.attitude.branch`): the polarization's first used sample takes the AoP's root nearest the
+        start's heading, or with ``other_root`` the other one."""
+        self._state[_k.S_P_OTHER], self._branch = float(other_root), True
+
+    def _check_branch(self, pin, mag) -> None:
+        """Refuse the chunk's first usable polarization sample (``pin``: its kernel inputs) while nothing fixed the
+        heading's branch: q0, heading0, or a magnetometer sample (``mag`` (N, 3) or None; with an offset fitted
+        online only a field already used) at or before it, whose field sets the heading the AoP's root is taken
+        nearest to (:func:`_iframe._pol_update`)."""
+        if self._branch or self._state[_k.S_P_INIT] or self._state[_k.S_M_INIT] or not pin[0].any():
+            return
+        first = int(np.argmax(pin[0]))
+        if mag is None or not np.isfinite(mag[: first + 1]).all(axis=1).any():
+            from optinav.attitude.branch import stream_branch_error
+
+            raise stream_branch_error()
 
     def update(self, gyr, acc, mag=None, dt=None, pol_sample=None) -> None:
         """One sample; then read :attr:`q_b_n`, :attr:`rest`, … Only the lengths are checked in Python (speed); a
@@ -851,6 +893,12 @@ class AttitudeFilter(StreamGaps):
             raise OptinavError("no time step for this chunk", "pass dt= or build with rate_hz")
         d = _as_dt(h, g.shape[0])
         self._chunk_gaps(d)
+        pin = None
+        if pol is not None:
+            from optinav.attitude.measurement import pol_inputs
+
+            pin = pol_inputs(pol, g.shape[0], self.frame, "the IMU")
+            self._check_branch(pin, None if self._fit is not None else m)  # before any state changes
         restart = -1
         if m is not None and self._given is not None:
             m = m - self._given
@@ -862,9 +910,6 @@ class AttitudeFilter(StreamGaps):
         if pol is None:
             r = _run(self._state, self._par, g, a, rows, d, restart)
         else:
-            from optinav.attitude.measurement import pol_inputs
-
-            pin = pol_inputs(pol, g.shape[0], self.frame, "the IMU")
             r = _run_pol(self._state, self._par, g, a, rows, d, pin, restart)
         if pol is not None:
             self._pol_skipped = self._pol_skipped or {}

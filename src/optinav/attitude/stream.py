@@ -326,7 +326,9 @@ class StreamChecks:
 class StreamEstimator:
     """An online estimator run over consecutive blocks: :meth:`run` (gyr, acc, dts of one block) returns its
     q_b^n (n, 4); :meth:`restart` starts a new segment (after a time gap: levelled from its first sample).
-    ``method``/``options``/``frame``/``q0``/``input_stage`` as :func:`~optinav.attitude.estimate`."""
+    ``method``/``options``/``frame``/``q0``/``input_stage`` as :func:`~optinav.attitude.estimate`; ``branches``
+    per segment the polarization's heading branch the log decided (:class:`~optinav.attitude.branch.Branch`) or
+    None, and ``branch_rms`` (2,) rad the residual RMS its summary names."""
 
     @staticmethod
     def check(method: str, options: dict) -> dict:
@@ -346,6 +348,8 @@ class StreamEstimator:
         mag_hard_iron_fitted: bool = False,
         mag_hard_iron_online: bool = False,
         mag_measured_before_fit: bool = False,
+        branches=(),
+        branch_rms=None,
         **options,
     ):
         from optinav.attitude.estimators import _as_q0
@@ -371,6 +375,7 @@ class StreamEstimator:
         self._used_before_fit = 0  # ... of them before the online fit's offset was subtracted
         self.pol_skipped: dict[str, int] | None = None  # None: no polarization given
         self.gyr_bias = None
+        self.branches, self.branch_rms = list(branches), branch_rms
         self.restart()
 
     def restart(self) -> None:
@@ -382,6 +387,9 @@ class StreamEstimator:
 
         kw = dict(self.opts, frame=self.frame, q0=self.q0 if self.segments == 0 else None)
         f = make_filter(self.method, input_stage=self.input_stage, **kw)
+        b = self.branches[self.segments] if self.segments < len(self.branches) else None
+        if b is not None:
+            f._decided(b.other_root)
         f._gap_check = False  # the file's gaps, judged on its whole median, are cut here (restart)
         if self._fit is not None:
             f._fit = self._fit  # one fit over every segment, which the filter continues
@@ -501,6 +509,7 @@ class StreamEstimator:
             mag_hard_iron_from=self.mag_hard_iron_from,
             mag_used_before_fit=self.mag_used_before_fit,
             declination=self.declination,
+            pol_branch_rms=self.branch_rms,
         )
 
     @property

@@ -34,6 +34,11 @@ def attitude_tables(res, n_samples: int, score=None) -> list[Table]:
         ["polarization used", res.pol_used],
     ]
     rows += [[f"polarization skipped: {k}", v] for k, v in res.pol_skipped.items()]
+    branch = getattr(res, "pol_branch_rms", None)  # the heading branch chosen by the data (None: not decided)
+    if branch is not None:
+        rows.append(
+            ["heading branch: AoP residual RMS, taken / other [deg]", Cell(np.degrees(branch).tolist(), _fixed(2))]
+        )
     rows += [["accelerometer threshold hits", res.acc_threshold_hits]]
     used = getattr(res, "mag_used", None)  # per-sample flags (in memory) or a count (streamed); None: no magnetometer
     if used is not None:
