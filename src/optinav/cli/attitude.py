@@ -141,8 +141,8 @@ def register(sub) -> None:
     p.add_argument(
         "--q0-deg",
         metavar="ROLL,PITCH,YAW",
-        help="initial roll, pitch, yaw in deg (default: levelled from the first sample, heading "
-        "from polarization if available, else 0)",
+        help="initial roll, pitch, yaw in deg (default: levelled from the first sample, heading from polarization "
+        "on the branch the log's tilting shows, refused when it shows none, or from the magnetometer, else 0)",
     )
     pol = p.add_argument_group("polarization (optional)")
     pol.add_argument(
@@ -454,7 +454,8 @@ def register_simulate(kinds) -> None:
               optinav attitude flight.csv --method mekf --pol-columns aop_deg,dop --aop-unit deg \\
                   --lat 38.8814192 --lon 121.528255 --start-time 2021-01-16T16:33:00+08:00 \\
                   --q0-deg 0,0,-111 --out att.csv
-              (a zenith polarization angle fixes the heading only up to 180°: --q0-deg gives the
+              (a zenith polarization angle fixes the heading only up to 180°: without --q0-deg the
+              flight's tilting picks the branch and a level log is refused; here --q0-deg gives the
               initial attitude the simulator printed)
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter,
