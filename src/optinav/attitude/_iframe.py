@@ -466,9 +466,19 @@ def _init(st, par, ax, ay, az):
         st[S_QC] = 1.0
         st[S_QC + 1] = st[S_QC + 2] = st[S_QC + 3] = 0.0
     a = (ax, ay, az)
+    lp = a
+    if given:
+        # q0 gives the tilt: the tilt's low-pass starts steady at the specific force q0 predicts at rest (g·up in
+        # the body, which is I now), not with a running mean from this sample, which in motion is off the vertical
+        # and set the tilt at once, q0's overridden (BROAD 16 cut at 45.8 s, in fast motion: the tilt 20-50° off,
+        # with the AoP the heading 175° off, exit 0)
+        c0, c1, c2, c3 = st[S_QC], st[S_QC + 1], st[S_QC + 2], st[S_QC + 3]
+        gx, gy, gz = _rot(c0, -c1, -c2, -c3, ux, uy, uz)
+        lp = (par[P_GRAVITY] * gx, par[P_GRAVITY] * gy, par[P_GRAVITY] * gz)
+        st[S_LP_T0] = -math.inf
     for j in range(3):
         for k in range(4):
-            st[S_LP + 4 * j + k] = a[j]
+            st[S_LP + 4 * j + k] = lp[j]
         st[S_RA + j] = a[j]
         st[S_RG + j] = 0.0
         st[S_RN + 3 + j] = a[j]
