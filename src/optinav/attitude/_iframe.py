@@ -1330,6 +1330,28 @@ def _eig3(C):
 
 
 @numba.njit(**_NJ)
+def _hf_offset(fs, k, w, V, seen, p0, p1, p2):
+    """The offset less the first field, b − c (3), from the moments block at ``fs[k:]`` along the eigenvectors v
+    of its field covariance (eigenvalues λ ``w``, vectors the columns of ``V``) with λ > ``seen``: 2 (m − m̄)·(b − c)
+    = y − ȳ in the least-squares sense, so b − c = Σ (v·cov(m, y)/2)/λ v over them; along the others the given
+    p = (p0, p1, p2), p·v v. Returns it and how many directions were seen."""
+    n = fs[k]
+    m0, m1, m2 = fs[k + 1] / n, fs[k + 2] / n, fs[k + 3] / n
+    yb = fs[k + 10] / n
+    c0, c1, c2 = fs[k + 11] / n - m0 * yb, fs[k + 12] / n - m1 * yb, fs[k + 13] / n - m2 * yb
+    d = np.zeros(3)
+    count = 0
+    for i in range(3):
+        v = V[:, i]
+        if w[i] > seen:
+            d += (0.5 * (v[0] * c0 + v[1] * c1 + v[2] * c2) / w[i]) * v
+            count += 1
+        else:
+            d += (v[0] * p0 + v[1] * p1 + v[2] * p2) * v
+    return d, count
+
+
+@numba.njit(**_NJ)
 def _hf_fit(fs, k, out):
     """The sphere fit of the block at ``fs[k:]`` into ``out`` (3) when its samples turned the field about every
     body axis by MAG_SEEN_SPREAD of the fitted radius r, not of |m|, which the offset inflates (BROAD 02 with (100,
@@ -1346,15 +1368,7 @@ def _hf_fit(fs, k, out):
     low = w[0]
     if not low > 1e-12 * mz0:  # not turned at all about one axis: no fit
         return math.inf
-    m0, m1, m2 = fs[k + 1] / n, fs[k + 2] / n, fs[k + 3] / n
-    yb = fs[k + 10] / n
-    cy = np.array([fs[k + 11] / n - m0 * yb, fs[k + 12] / n - m1 * yb, fs[k + 13] / n - m2 * yb])
-    # 2 (m − m̄)·(b − c) = y − ȳ in the least-squares sense: C (b − c) = cov(m, y) / 2
-    d = np.zeros(3)
-    for i in range(3):
-        c = 0.5 * (V[0, i] * cy[0] + V[1, i] * cy[1] + V[2, i] * cy[2]) / w[i]
-        for j in range(3):
-            d[j] += c * V[j, i]
+    d, _ = _hf_offset(fs, k, w, V, -math.inf, 0.0, 0.0, 0.0)  # every direction seen: C (b − c) = cov(m, y) / 2
     out[0], out[1], out[2] = fs[HF_C] + d[0], fs[HF_C + 1] + d[1], fs[HF_C + 2] + d[2]
     r2, _ = _hf_stats(fs, k, out[0], out[1], out[2])
     if not (r2 > 0.0 and low > (HF_SEEN_SPREAD * HF_SEEN_SPREAD) * r2):
@@ -1372,20 +1386,9 @@ def _hf_partial(fs, k, b0, b1, b2):
         return math.inf
     r2, _ = _hf_stats(fs, k, b0, b1, b2)
     w, V = _eig3(_hf_cov(fs, k))
-    m0, m1, m2 = fs[k + 1] / n, fs[k + 2] / n, fs[k + 3] / n
-    yb = fs[k + 10] / n
-    cy = np.array([fs[k + 11] / n - m0 * yb, fs[k + 12] / n - m1 * yb, fs[k + 13] / n - m2 * yb])
-    # b − c = Σ over seen directions v (v·cov(m, y)/2)/λ v, plus the old offset's part along the unseen ones
-    p = np.array([b0 - fs[HF_C], b1 - fs[HF_C + 1], b2 - fs[HF_C + 2]])
-    d = np.zeros(3)
-    seen = 0
-    for i in range(3):
-        v = V[:, i]
-        if w[i] > HF_SEEN_SPREAD * HF_SEEN_SPREAD * r2:
-            d += (0.5 * (v[0] * cy[0] + v[1] * cy[1] + v[2] * cy[2]) / w[i]) * v
-            seen += 1
-        else:
-            d += (v[0] * p[0] + v[1] * p[1] + v[2] * p[2]) * v
+    # the old offset b kept along the directions not seen
+    d, seen = _hf_offset(fs, k, w, V, HF_SEEN_SPREAD * HF_SEEN_SPREAD * r2, b0 - fs[HF_C], b1 - fs[HF_C + 1],
+                         b2 - fs[HF_C + 2])  # fmt: skip
     if seen == 0:
         return math.inf
     return _hf_spread(fs, k, fs[HF_C] + d[0], fs[HF_C + 1] + d[1], fs[HF_C + 2] + d[2])
