@@ -932,7 +932,6 @@ def estimate(
 
         parts = [part(a, b) for a, b in zip(np.r_[0, gaps], np.r_[gaps, n])]
         first = parts[0]
-
         cat = lambda name: None if getattr(first, name) is None else np.concatenate([getattr(p, name) for p in parts])
         return _after(early, AttitudeEstimate(
             q_b_n=cat("q_b_n"),

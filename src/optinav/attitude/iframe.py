@@ -149,9 +149,10 @@ def _params(frame: str, opts: dict) -> np.ndarray:
 
 
 def _new_state(opts: dict, q0=None, heading0: float = 0.0, other_root: bool = False) -> np.ndarray:
-    """A state before the first sample: from ``q0`` (q_g = identity, q_c = q0, δ = 0; the filter memories from
-    acc[0]), else levelled then, δ = ``heading0`` (rad, a turn about up: the polarization's first used sample takes
-    the AoP's root nearest it, or with ``other_root`` the other one, the other heading branch)."""
+    """A state before the first sample: from ``q0`` (q_g = identity, q_c = q0, δ = 0; the tilt's low-pass from the
+    gravity q0 predicts, the other memories from acc[0]: :func:`_iframe._init`), else levelled then, δ =
+    ``heading0`` (rad, a turn about up: the polarization's first used sample takes the AoP's root nearest it, or
+    with ``other_root`` the other one, the other heading branch)."""
     st = np.zeros(_k.STATE_SIZE)
     st[_k.S_P : _k.S_P + 9] = (np.eye(3) * opts["bias_sigma0"] ** 2).ravel()
     if q0 is not None:
