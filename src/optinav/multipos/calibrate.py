@@ -1740,7 +1740,7 @@ def at_gyro_rail(value: float, unit: str) -> bool:
     return bool(np.any(np.abs(dps / np.r_[rails, GYRO_RAIL_ST * rails] - 1.0) <= 0.003))
 
 
-def clipped_turn_rows(gyr, acc, names, idx, gyr_b, dt: float, unit: str = "counts") -> np.ndarray:
+def clipped_turn_rows(gyr, acc, names, idx, gyr_b, dt: float, rail_unit: str | None = None) -> np.ndarray:
     """Rows (N,) of the Ferraris rotation sections (``names`` ending in _rot, half-open ``idx`` rows) where the gyro
     reads its full scale, judged from the samples, so that a stated range too large hides none: per axis and sign,
     the turns' samples at the log's extreme once that shows itself a rail — in a turn, a run of k ≥ 3 samples at it
@@ -1751,9 +1751,9 @@ def clipped_turn_rows(gyr, acc, names, idx, gyr_b, dt: float, unit: str = "count
     the turns by the attitude input check's rule (:func:`optinav.attitude.checks.saturated_extremes`: a clip on the
     moves between the poses shows the rail a single sample of a turn reaches). A rate a turn holds over most of its
     motion is a constant rate, not a rail (:data:`PLATEAU_TOL`, :data:`RAMP_SPEEDUP`), unless the rail shows itself
-    elsewhere, or sits where a gyro set to a common range rails (:func:`at_gyro_rail`). ``gyr`` (N, 3) raw [``unit``],
-    ``acc`` (N, 3) (a whole sample repeated is one the logger held), ``gyr_b`` (3,) the raw bias, ``dt`` the sample
-    step [s]."""
+    elsewhere, or sits where a gyro set to a common range rails (:func:`at_gyro_rail`, with ``rail_unit`` the gyro's
+    unit; None: not judged, the range stated). ``gyr`` (N, 3) raw, ``acc`` (N, 3) (a whole sample repeated is one
+    the logger held), ``gyr_b`` (3,) the raw bias, ``dt`` the sample step [s]."""
     from optinav.attitude.checks import axis_steps, quantum, saturated_extremes
 
     turns = [(int(a), int(b)) for nm, (a, b) in zip(names, idx) if str(nm).endswith("_rot")]
@@ -1774,12 +1774,12 @@ def clipped_turn_rows(gyr, acc, names, idx, gyr_b, dt: float, unit: str = "count
             # a natural peak reaches its value once, a rail every peak beyond it: a lone run of 3-4 samples is no
             # evidence (BROAD's gyro axes hold a sample 3-4 times in 0.1 % of their moving steps, peaks too)
             shortest = 3 if len(mask_runs(at)) > 1 else 5
+            # a flat turn at a common range's rail is a clip, not a constant rate (unless the range was stated)
+            plateau = rail_unit is None or not at_gyro_rail(m, rail_unit)
             shown = False
             for i0, i1 in turns:
                 if at[i0:i1].any():
-                    shown = shown or _turn_rail(
-                        y[i0:i1], at[i0:i1], whole[i0:i1], rate, q, dt, shortest, not at_gyro_rail(m, unit)
-                    )
+                    shown = shown or _turn_rail(y[i0:i1], at[i0:i1], whole[i0:i1], rate, q, dt, shortest, plateau)
             rails[j, sgn] = m, at, shown
     # the rail shown outside the turns (a turntable faster than the range reads flat at it too)
     between = np.ones(n, bool)
@@ -1837,12 +1837,12 @@ def _turn_rail(y, at, rows, rate: float, q: float, dt: float, shortest: int, pla
     return False
 
 
-def _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, gyr_b, rail_unit: str = "counts") -> None:
+def _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, gyr_b, rail_unit: str | None = None) -> None:
     """One-line errors for a sensor at its full scale inside a Ferraris section (outside them it is harmless):
     the accelerometer (integer type or --acc-range), the gyro likewise or, in a turn, at a rail its samples show
     (:func:`clipped_turn_rows`, with or without --gyro-range: a clipped peak makes the turn's integral fall short,
     K too small); ``rail_unit`` the gyro's unit where a flat turn at a common range's rail is a clip (no range
-    stated), else "counts"."""
+    stated), else None."""
     sat_g = np.zeros(gyro.shape[0], bool) if sat_g is None else sat_g.copy()
     sat_g |= clipped_turn_rows(gyro, acc, names, idx, gyr_b, _typical_step(t), rail_unit)
     for what, sat, flag in (("accelerometer", sat_a, "--acc-range"), ("gyroscope", sat_g, "--gyro-range")):
@@ -1982,7 +1982,7 @@ def _ferraris(
         )
 
     fc, std = closed_form(gyro)
-    _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, fc.gyr_b, "counts" if range_stated else gyro_unit)
+    _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, fc.gyr_b, None if range_stated else gyro_unit)
     # a clipped turn is named as such above; a spike or dropout inside a turn after it
     if glitch is not None:
         raise glitch
