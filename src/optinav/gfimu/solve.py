@@ -210,7 +210,8 @@ def _integrate_compensated(P, Hq, f, dt, w, wd):
         wd_new = _wdot(P, Hq, f[k], w + wd * h)
         w = w + 0.5 * (wd + wd_new) * h
         wd = wd_new
-        out[k] = w
+        for j in range(3):  # not ``out[k] = w``: numba's row assignment compiles its shape-mismatch error (3 s)
+            out[k, j] = w[j]
     return out, wd
 
 
@@ -218,8 +219,16 @@ def _integrate_compensated(P, Hq, f, dt, w, wd):
 def _wdot(P, Hq, fk, w):
     """``P (f_k − H_quad q(w))`` with q the quadratic rate products (:func:`quadratic_products`)."""
     x, y, z = w[0], w[1], w[2]
-    q = np.array([x * x, y * y, z * z, x * y, x * z, y * z])
-    return P @ (fk - Hq @ q)
+    q = (x * x, y * y, z * z, x * y, x * z, y * z)
+    # loops, not ``@``: numba's BLAS bindings took 2 s of compiling for two products of at most 3 × 12
+    out = np.zeros(P.shape[0])
+    for j in range(fk.shape[0]):
+        r = fk[j]
+        for m in range(6):
+            r -= Hq[j, m] * q[m]
+        for i in range(P.shape[0]):
+            out[i] += P[i, j] * r
+    return out
 
 
 def _dq(w) -> np.ndarray:
