@@ -1110,3 +1110,39 @@ def test_a_slow_steady_turn_about_a_horizontal_axis_is_no_gyro_bias_at_rest():
         still = np.tile([0.0, 0.0, 9.81], (n, 1)) + rng.normal(0, 0.02, (n, 3))
         with pytest.raises(OptinavError, match="bias"):
             estimate(gyr, still, 1.0 / rate_hz, frame="ENU")
+
+
+@pytest.mark.parametrize("steps", ["one", "per sample"])
+def test_gravity_means_of_the_input_checks_hold_gravity_still_under_a_known_turn(steps):
+    """The checks' one-pass kernel: for a body turning at known rates (irregular steps or one), the specific force
+    of gravity carried into the gyro-integrated frame is the first sample's reading throughout, so the means keep
+    |g|, their unit vectors do not move and the per-sample spread is 0; it is the strapdown and rotation of
+    :mod:`optinav.core` composed with moving means (the numpy form it replaced) to rounding."""
+    from optinav.attitude._kernels import gravity_means
+    from optinav.core.rotations import quat_conjugate, quat_rotate
+    from optinav.core.strapdown import attitude_update
+
+    rng = np.random.default_rng(3)
+    n, w = 1500, 200
+    t = np.arange(n) * 0.01
+    gyr = np.column_stack([np.sin(0.7 * t), 0.5 * np.cos(1.3 * t), 0.3 + 0.2 * np.sin(0.2 * t)])
+    dts = np.full(1, 0.01) if steps == "one" else 0.01 * (1 + 0.2 * rng.random(n))
+    h = dts[0] if steps == "one" else dts[:, None]
+    q = attitude_update([1.0, 0.0, 0.0, 0.0], gyr * h, coning="none")[1:]  # q_b^i after each sample
+    acc = quat_rotate(quat_conjugate(q), np.array([0.0, 0.0, 9.81]))  # gravity's specific force in the body
+    ms, u, nm = gravity_means(gyr, acc, dts, w)
+    assert u.shape == (n - w + 1, 3) and nm.shape == (n - w + 1,)
+    np.testing.assert_allclose(nm, 9.81, rtol=1e-12)
+    np.testing.assert_allclose(u, np.tile([0.0, 0.0, 1.0], (n - w + 1, 1)), atol=1e-12)
+    assert ms < 1e-20
+    # a gyro 10 % off: gravity wanders in the frame it integrates to; the kernel equals the numpy composition
+    a_i = quat_rotate(attitude_update([1.0, 0.0, 0.0, 0.0], 1.1 * gyr * h, coning="none")[1:], acc)
+    c = np.cumsum(np.vstack([np.zeros(3), a_i]), axis=0)
+    m = (c[w:] - c[:-w]) / w
+    ms, u, nm = gravity_means(1.1 * gyr, acc, dts, w)
+    np.testing.assert_allclose(nm, np.linalg.norm(m, axis=1), rtol=1e-13)
+    np.testing.assert_allclose(u, m / np.linalg.norm(m, axis=1)[:, None], atol=1e-13)
+    x = a_i[w // 2 : w // 2 + m.shape[0]]
+    cos = np.einsum("ij,ij->i", x, m) / (np.linalg.norm(x, axis=1) * np.linalg.norm(m, axis=1))
+    assert ms == pytest.approx(np.mean(np.arccos(np.clip(cos, -1, 1)) ** 2), rel=1e-12)
+    assert np.degrees(np.sqrt(ms)) > 0.2  # (0.42°: the per-sample spread the wrong gyro leaves)

@@ -21,7 +21,7 @@ import math
 import numba
 import numpy as np
 
-from optinav.core._quat import qmul, qnormalize, rv2q
+from optinav.core._quat import qmul, qnormalize, qrotate, qupdate, rv2q
 
 _NJ = dict(cache=True, nogil=True, fastmath=False)
 
@@ -688,3 +688,53 @@ def run_mekf(
     _copy(state[0:4], q)
     _copy(state[4:7], bias)
     _copy(state[7:43], P.ravel())
+
+
+# --- input checks ----------------------------------------------------------------------------------------------
+
+
+@numba.njit(**_NJ)
+def gravity_means(gyr, acc, dts, w):
+    """The specific force ``acc`` (n, 3) carried into the frame the gyro rates ``gyr`` (n, 3) rad/s integrate to
+    from the first sample (steps ``dts`` s: one, or one per sample; a rotation-vector update per sample, no coning
+    term), and its ``w``-sample moving means: their unit vectors (M, 3) and norms (M,), M = n − w + 1, and the mean
+    square angle (rad²) between each sample and the mean of the ``w`` samples centred on it. One pass for the
+    time-base and unit checks of :mod:`optinav.attitude.checks`, which call it thousands of times on short
+    windows, where numpy's per-call overhead was most of the time."""
+    n = gyr.shape[0]
+    one = dts.shape[0] == 1
+    ai = np.empty((n, 3))
+    qw, qx, qy, qz = 1.0, 0.0, 0.0, 0.0
+    for k in range(n):
+        h = dts[0] if one else dts[k]
+        qw, qx, qy, qz = qupdate(qw, qx, qy, qz, gyr[k, 0] * h, gyr[k, 1] * h, gyr[k, 2] * h, False, 0.0, 0.0, 0.0)
+        vx, vy, vz = qrotate(qw, qx, qy, qz, acc[k, 0], acc[k, 1], acc[k, 2])
+        ai[k, 0] = vx
+        ai[k, 1] = vy
+        ai[k, 2] = vz
+    m = n - w + 1
+    u = np.empty((max(m, 0), 3))
+    nm = np.empty(max(m, 0))
+    c0 = np.zeros(3)  # running sums of samples 0 … i − 1 and 0 … i + w − 1
+    c1 = np.zeros(3)
+    for k in range(min(w, n)):
+        for j in range(3):
+            c1[j] += ai[k, j]
+    ss = 0.0
+    for i in range(m):
+        if i > 0:
+            for j in range(3):
+                c0[j] += ai[i - 1, j]
+                c1[j] += ai[i + w - 1, j]
+        mx = (c1[0] - c0[0]) / w
+        my = (c1[1] - c0[1]) / w
+        mz = (c1[2] - c0[2]) / w
+        r = math.sqrt(mx * mx + my * my + mz * mz)
+        x = ai[i + w // 2]
+        cosang = (x[0] * mx + x[1] * my + x[2] * mz) / (math.sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) * r + 1e-300)
+        ss += math.acos(min(max(cosang, -1.0), 1.0)) ** 2
+        nm[i] = r
+        u[i, 0] = mx / (r + 1e-300)
+        u[i, 1] = my / (r + 1e-300)
+        u[i, 2] = mz / (r + 1e-300)
+    return ss / max(m, 1), u, nm

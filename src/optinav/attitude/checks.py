@@ -263,27 +263,16 @@ def _moving_means(x: np.ndarray, w: int) -> np.ndarray:
     return (c[w:] - c[:-w]) / w
 
 
-def _in_gyro_frame(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> np.ndarray:
-    """The specific force ``acc`` (n, 3) carried into the frame the gyro rates ``gyr`` (rad/s, steps ``dts`` s)
-    integrate to from the first sample (an almost inertial frame when the gyro is right)."""
-    from optinav.core.rotations import quat_rotate
-    from optinav.core.strapdown import attitude_update
-
-    h = dts[:, None] if dts.shape[0] > 1 else dts[0]
-    return quat_rotate(attitude_update([1.0, 0.0, 0.0, 0.0], gyr * h, coning="none")[1:], acc)
-
-
-def _spreads(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, w: int) -> tuple[float, np.ndarray, float]:
+def _spreads(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, w: int) -> tuple[float, np.ndarray, np.ndarray]:
     """The per-sample spread (rad), the unit 2-s means (M, 3) of the specific force carried into the frame the
-    gyro rates ``gyr`` (rad/s) integrate to, and the share of gravity those means keep (their median norm over
-    the specific force's median norm or g, the smaller, as :func:`inertial_gravity_share`)."""
-    a_i = _in_gyro_frame(gyr, acc, dts)
-    m = _moving_means(a_i, w)
-    x = a_i[w // 2 : w // 2 + m.shape[0]]
-    nm = np.linalg.norm(m, axis=1)
-    cosang = np.einsum("ij,ij->i", x, m) / (np.linalg.norm(x, axis=1) * nm + 1e-300)
-    per_sample = float(np.sqrt(np.mean(np.arccos(np.clip(cosang, -1.0, 1.0)) ** 2)))
-    return per_sample, m / (nm[:, None] + 1e-300), _kept_share(nm, acc)
+    gyro rates ``gyr`` (rad/s) integrate to, and those means' norms (M,) (:func:`_kernels.gravity_means`)."""
+    from optinav.attitude._kernels import gravity_means
+
+    def c(x):
+        return np.ascontiguousarray(x, dtype=float)
+
+    ms, u, nm = gravity_means(c(gyr), c(acc), c(dts), w)
+    return float(np.sqrt(ms)), u, nm
 
 
 def _kept_share(nm: np.ndarray, acc: np.ndarray) -> float:
@@ -308,10 +297,11 @@ def _gravity_spread(
     wandering in the frame by tens of degrees, a right one by the bias's drift). ``fit_bias``: the second is
     taken with the constant bias (at most UNIT_BIAS_MAX, two Gauss–Newton steps from zero) that steadies the
     means most — a bias is no unit error, and a gyro 57× too large cannot be steadied by one. ``span``: the
-    means' length (s) instead of 2 s. Third: the share of gravity the means keep (:func:`_spreads`)."""
+    means' length (s) instead of 2 s. Third: the share of gravity the means keep (:func:`_kept_share`)."""
     w = _means_window(dts, gyr.shape[0], span)
     g = gyr * scale
-    per_sample, u, kept = _spreads(g, acc, dts, w)
+    per_sample, u, nm = _spreads(g, acc, dts, w)
+    kept = _kept_share(nm, acc)
     if not fit_bias:
         return per_sample, _drift(u), kept
     b = np.zeros(3)
@@ -1480,7 +1470,7 @@ def inertial_gravity_share(g: np.ndarray, a: np.ndarray, d: np.ndarray) -> float
     w = _means_window(d, g.shape[0])
     if g.shape[0] < 2 * w:
         return float("nan")
-    return _kept_share(_norm(_moving_means(_in_gyro_frame(g, a, d), w)), a)
+    return _kept_share(_spreads(g, a, d, w)[2], a)
 
 
 def _acc_unit_error(med_a: float, gravity: float = float("nan"), where: str = "") -> OptinavError:
