@@ -290,20 +290,19 @@ def _drift(u: np.ndarray) -> float:
 
 def _gravity_spread(
     gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: float, fit_bias: bool = False, span: float = 2.0
-) -> tuple[float, float, float]:
+) -> tuple[float, float, np.ndarray]:
     """How well the gyro (× scale) explains how gravity turns in the body: the RMS angle (rad) between the
     specific force carried into the gyro-integrated frame and its 2-s moving mean, and the RMS angle of those
     2-s means about their mean over the window (translation averages out of them: a wrong scale leaves gravity
     wandering in the frame by tens of degrees, a right one by the bias's drift). ``fit_bias``: the second is
     taken with the constant bias (at most UNIT_BIAS_MAX, two Gauss–Newton steps from zero) that steadies the
     means most — a bias is no unit error, and a gyro 57× too large cannot be steadied by one. ``span``: the
-    means' length (s) instead of 2 s. Third: the share of gravity the means keep (:func:`_kept_share`)."""
+    means' length (s) instead of 2 s. Third: the 2-s means' norms (m/s², :func:`_kept_share` judges them)."""
     w = _means_window(dts, gyr.shape[0], span)
     g = gyr * scale
     per_sample, u, nm = _spreads(g, acc, dts, w)
-    kept = _kept_share(nm, acc)
     if not fit_bias:
-        return per_sample, _drift(u), kept
+        return per_sample, _drift(u), nm
     b = np.zeros(3)
     eps = 1e-3 * UNIT_BIAS_MAX
     ub = u
@@ -320,7 +319,7 @@ def _gravity_spread(
         if nb > UNIT_BIAS_MAX:
             b *= UNIT_BIAS_MAX / nb
         ub = _spreads(g - b, acc, dts, w)[1]
-    return per_sample, min(_drift(u), _drift(ub)), kept
+    return per_sample, min(_drift(u), _drift(ub)), nm
 
 
 #: the gyro-unit check looks at this many seconds of the recording, where the gyro turns most
@@ -506,7 +505,7 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = F
     # evidence for their scale (BROAD 29, 10 s turning at 7.4 rad/s RMS: ×180/π kept 29 % of gravity and its means
     # drifted 0.021 rad against the declared unit's 0.076 with all of it kept, and was refused as rad/s declared
     # deg/s)
-    spreads = {s: v for s, v in spreads.items() if s == 1.0 or not v[2] < GRAVITY_SHARE}
+    spreads = {s: v for s, v in spreads.items() if s == 1.0 or not _kept_share(v[2], a) < GRAVITY_SHARE}
     # per sample; then the drift of the 2-s means (translation averaged out), counted beyond 0.2 rad (11°) in
     # the window: what a gyro bias of 0.5 °/s drifts in 20 s, on a body that hardly turns, stays below
     for i, floor in ((0, 0.0), (1, 0.2)):
