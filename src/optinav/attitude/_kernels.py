@@ -1,4 +1,5 @@
-"""numba kernels of the attitude estimators (private; the numpy API is in :mod:`optinav.attitude.estimators`).
+"""numba kernels of the attitude estimators (private; the numpy API is in :mod:`optinav.attitude.estimators`) and
+of the input checks' gravity drift (:func:`gravity_means`, used by :mod:`optinav.attitude.checks`).
 
 Quaternion products, rotation-vector exponentials and normalization are the kernels of :mod:`optinav.core._quat`,
 shared with the strapdown. One measurement model (:func:`_model`) is shared by every estimator and by the public
