@@ -69,16 +69,13 @@ def corrected(theta, raw) -> np.ndarray:
 
 
 def norm_residuals(theta, means, g: float) -> np.ndarray:
-    """r_k = ‖K⁻¹(m_k − b)‖ − g (m/s²) for θ (9,) → (P,) or a population θ (M, 9) → (M, P)."""
-    K, b = theta_to_Kb(theta)
-    v = np.asarray(means, dtype=float) - b[..., None, :]
-    k = K[..., None, :, :]
-    # the back substitution of _solve_upper, its three components squared and summed without stacking them
-    # (a GA's population on every sample: a third of the time)
-    u2 = v[..., 2] / k[..., 2, 2]
-    u1 = (v[..., 1] - k[..., 1, 2] * u2) / k[..., 1, 1]
-    u0 = (v[..., 0] - k[..., 0, 1] * u1 - k[..., 0, 2] * u2) / k[..., 0, 0]
-    return np.sqrt(u0 * u0 + u1 * u1 + u2 * u2) - g
+    """r_k = ‖K⁻¹(m_k − b)‖ − g (m/s²) for θ (9,) → (P,) or a population θ (M, 9) → (M, P), means (P, 3)."""
+    from optinav.multipos._kernels import norm_residuals_kernel  # numba: loaded on first use
+
+    th = np.asarray(theta, dtype=float)
+    pts = np.asarray(means, dtype=float)
+    r = norm_residuals_kernel(np.ascontiguousarray(th.reshape(-1, 9)), np.ascontiguousarray(pts.T), float(g))
+    return r.reshape(th.shape[:-1] + (pts.shape[0],))
 
 
 def norm_jacobian(theta, means) -> np.ndarray:
