@@ -11,9 +11,9 @@ import numpy as np
 @numba.njit(cache=True, nogil=True)
 def norm_residuals_kernel(theta, points, g):
     """r = ‖K⁻¹(m − b)‖ − g (m/s²) of each θ row of ``theta`` (M, 9) at each column of ``points`` (3, P) → (M, P):
-    K⁻¹ by back substitution on the upper-triangular K, in the order of operations of the numpy form it replaced
-    (the same bits). A GA's population on every static sample (50 × 12 011) took 26 ms in numpy's temporaries,
-    2 ms here."""
+    K⁻¹ by back substitution on the upper-triangular K in the order of :func:`optinav.multipos.model._solve_upper`
+    (the same bits as the norms of :func:`~optinav.multipos.model.corrected`). A GA's population on every static
+    sample (50 × 12 011) took 26 ms in numpy's temporaries, 2 ms here."""
     M, P = theta.shape[0], points.shape[1]
     out = np.empty((M, P))
     x, y, z = points[0], points[1], points[2]
