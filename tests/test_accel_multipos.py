@@ -140,10 +140,14 @@ def test_pose_statistics_skip_invalid_and_non_finite_rows():
     for k, (i0, i1) in enumerate(idx):
         x = raw[i0:i1][valid[i0:i1] & np.all(np.isfinite(raw[i0:i1]), axis=1)]
         np.testing.assert_array_equal(st.means[k], x.mean(axis=0))
+        np.testing.assert_allclose(st.covariances[k], np.cov(x.T, ddof=1), rtol=1e-12)
         assert st.counts[k] == len(x)
     assert st.counts[0] == idx[0, 1] - idx[0, 0] - 1 and st.counts[1] == idx[1, 1] - idx[1, 0] - 1
     with pytest.raises(OptinavError, match="valid has shape"):
         accel.pose_statistics(raw, idx, valid=valid[:-1])
+    valid[idx[2, 0] : idx[2, 1] - 1] = False
+    with pytest.raises(OptinavError, match="static pose 2 has 1 valid sample"):
+        accel.pose_statistics(raw, idx, valid=valid)
 
 
 @pytest.mark.parametrize("method", ["gn", "trf", "newton"])

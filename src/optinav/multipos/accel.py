@@ -32,6 +32,7 @@ from optinav.core.validate import as_float_array, check_positive
 from optinav.errors import OptinavError
 
 from . import gates, model
+from ._kernels import pose_moments_kernel
 
 METHODS = ("lm", "gn", "trf", "newton", "ga", "pso")
 _CORE_METHOD = {"lm": "lm", "gn": "gauss-newton", "trf": "trf", "newton": "newton", "ga": "ga", "pso": "pso"}
@@ -74,23 +75,19 @@ def pose_statistics(raw, index_ranges, *, valid=None) -> PoseStatistics:
         raise OptinavError(
             f"valid has shape {valid.shape}, the samples {raw.shape}", "pass one valid flag per sample row"
         )
-    means, covs, counts = [], [], []
-    for k, (i0, i1) in enumerate(np.asarray(index_ranges, dtype=int)):
-        # the finite test per pose: masks over the whole log would be 4 B per row of it
-        x = raw[i0:i1]
-        ok = np.all(np.isfinite(x), axis=1)
-        if valid is not None:
-            ok &= valid[i0:i1]
-        x = x[ok]
-        if x.shape[0] < 2:
-            raise OptinavError(
-                f"static pose {k} has {x.shape[0]} valid sample(s)",
-                "lengthen the static interval or drop it from the section list",
-            )
-        means.append(x.mean(axis=0))
-        covs.append(np.cov(x.T, ddof=1))
-        counts.append(x.shape[0])
-    return PoseStatistics(np.array(means), np.array(covs), np.array(counts))
+    raw = np.ascontiguousarray(raw.reshape(-1, 3))
+    # bounds as slicing takes them (negative, past the end)
+    ranges = [slice(int(i0), int(i1)).indices(raw.shape[0])[:2] for i0, i1 in np.asarray(index_ranges, dtype=int)]
+    ranges = np.array(ranges, dtype=np.int64).reshape(-1, 2)
+    means, covs, counts = pose_moments_kernel(raw, ranges, np.empty(0, bool) if valid is None else valid)
+    short = np.flatnonzero(counts < 2)
+    if short.size:
+        k = short[0]
+        raise OptinavError(
+            f"static pose {k} has {counts[k]} valid sample(s)",
+            "lengthen the static interval or drop it from the section list",
+        )
+    return PoseStatistics(means, covs, counts)
 
 
 def _fit_quadric(D: np.ndarray) -> np.ndarray:
