@@ -620,10 +620,11 @@ class TableChunks:
 
             # the layout from the first lines (enough blocks for the preamble and ten table lines)
             head: list[str] = []
+            content = 0
             while True:
                 more = block()
                 head += more
-                content = sum(1 for x in head if _strip_comment(x).strip())
+                content += sum(1 for x in more if _strip_comment(x).strip())
                 if not more or content >= _HEAD_CONTENT:
                     break
             lay = _text_layout(path, head, self.names, self.delimiter, labels, self.needed)
@@ -1021,7 +1022,13 @@ def normalize_name(name: str) -> tuple[str, str | None]:
     path component (with the one before when it is an axis: ``"/imu/angular_velocity/x"`` →
     ``"angular_velocity_x"``), spaces, dots and dashes as ``_``.
     """
-    s = str(name).strip()
+    return _normalized(str(name))
+
+
+@functools.lru_cache(maxsize=4096)
+def _normalized(s: str) -> tuple[str, str | None]:
+    # every layout detector asks again for every block of a streamed file (~20 calls per column per block)
+    s = s.strip()
     unit = None
     if s.startswith("field."):  # rostopic echo -p: field.angular_velocity.x, field.header.stamp
         s = s[len("field.") :]
