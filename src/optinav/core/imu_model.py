@@ -1144,13 +1144,24 @@ class SampleDraws:
         if dist not in ("normal", "uniform"):
             raise OptinavError(f"unknown distribution {dist!r}", "use 'normal' or 'uniform'")
         self.key, self.stream, self.width, self.dist = int(key), int(stream), int(width), dist
-        self._j, self._block = -1, None
+        self._j, self._gen, self._block, self._drawn = -1, None, None, 0
 
-    def _draw(self, j: int) -> np.ndarray:
-        seq = np.random.SeedSequence(self.key, spawn_key=(self.stream, j))
-        gen = np.random.Generator(np.random.PCG64(seq))
-        shape = (DRAW_BLOCK, self.width)
-        return gen.standard_normal(shape) if self.dist == "normal" else gen.random(shape)
+    def _rows(self, j: int, upto: int) -> np.ndarray:
+        """Block j with at least its first ``upto`` rows drawn. A generator fills arrays in order, so drawing a
+        block's rows as far as asked, then on, gives the bits of drawing the whole block at once; a short log then
+        draws its own samples, not the block's 65 536 rows (75 per sample for flicker)."""
+        if j != self._j:
+            seq = np.random.SeedSequence(self.key, spawn_key=(self.stream, j))
+            self._gen = np.random.Generator(np.random.PCG64(seq))
+            self._j, self._block, self._drawn = j, np.empty((DRAW_BLOCK, self.width)), 0
+        if upto > self._drawn:
+            rows = self._block[self._drawn : upto]
+            if self.dist == "normal":
+                self._gen.standard_normal(out=rows)
+            else:
+                self._gen.random(out=rows)
+            self._drawn = upto
+        return self._block
 
     def take(self, i0: int, i1: int) -> np.ndarray:
         """The draws of samples ``i0`` … ``i1 − 1``.
@@ -1169,10 +1180,8 @@ class SampleDraws:
         pos = i0
         while pos < i1:
             j = pos // DRAW_BLOCK
-            if j != self._j:
-                self._j, self._block = j, self._draw(j)
             a, b = pos - j * DRAW_BLOCK, min(i1 - j * DRAW_BLOCK, DRAW_BLOCK)
-            out[pos - i0 : pos - i0 + b - a] = self._block[a:b]
+            out[pos - i0 : pos - i0 + b - a] = self._rows(j, b)[a:b]
             pos += b - a
         return out
 
