@@ -40,6 +40,22 @@ def test_sample_draws_do_not_depend_on_the_split():
     )
 
 
+@pytest.mark.parametrize("dist", ["normal", "uniform"])
+def test_sample_draws_are_the_rows_of_their_blocks_whole_draw(dist):
+    """Sample i is row i mod DRAW_BLOCK of the block's generator drawing the whole (DRAW_BLOCK, width) array at
+    once, however the takes before it went (forward in small steps, back to an earlier block)."""
+
+    def block(j):
+        gen = np.random.Generator(np.random.PCG64(np.random.SeedSequence(5, spawn_key=(4, j))))
+        return gen.standard_normal((DRAW_BLOCK, 3)) if dist == "normal" else gen.random((DRAW_BLOCK, 3))
+
+    d = SampleDraws(5, 4, 3, dist)
+    b0, b1 = block(0), block(1)
+    for i0, i1 in ((0, 7), (7, 8), (8, 1000), (500, 600), (DRAW_BLOCK - 3, DRAW_BLOCK + 2), (20, 30)):
+        want = np.concatenate([b0, b1])[i0:i1]
+        assert np.array_equal(d.take(i0, i1), want)
+
+
 def _model(**gyro) -> ImuModel:
     return ImuModel(gyro_noise=TriadNoise(**gyro), rate_hz=100.0)
 
