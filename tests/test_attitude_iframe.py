@@ -23,11 +23,17 @@ from optinav.core.rotations import (
     quat_multiply,
     quat_rotate,
 )
+from optinav.core.strapdown import attitude_update
 from optinav.errors import OptinavError
 
 G = 9.81
 RATE = 100.0
 DT = 1.0 / RATE
+
+
+def chain(w, q0=(1.0, 0.0, 0.0, 0.0)):
+    """q_b^n after each sample of body rates ``w`` (N, 3) rad/s held over DT: q_k = q_{k-1} ⊗ exp(w_k·DT) from q0."""
+    return attitude_update(np.asarray(q0, float), w * DT, coning="none")[1:]
 
 
 def motion(n, seed=0, amp=1.0, rest=0, lin_acc=None):
@@ -39,12 +45,7 @@ def motion(n, seed=0, amp=1.0, rest=0, lin_acc=None):
     ph = rng.uniform(0, 2 * np.pi, 3)
     w = amp * np.column_stack([np.sin(2 * np.pi * f[k] * t + ph[k]) for k in range(3)])
     w[:rest] = 0.0
-    steps = quat_from_rotvec(w * DT)
-    q = np.empty((n, 4))
-    cur = np.array([1.0, 0, 0, 0])
-    for i in range(n):
-        cur = quat_multiply(cur, steps[i])
-        q[i] = cur
+    q = chain(w)
     f_n = np.tile([0.0, 0.0, -G], (n, 1)) + (0.0 if lin_acc is None else lin_acc)
     acc = np.einsum("nji,nj->ni", dcm_from_quat(q), f_n)
     return w, acc, q
@@ -1000,11 +1001,7 @@ def test_offline_heading_of_a_level_recording_that_starts_turning_learns_the_ver
     f, ph = rng.uniform(0.05, 0.3, 2), rng.uniform(0, 2 * np.pi, 2)
     w = np.zeros((n, 3))
     w[:, 2] = 0.5 * np.sin(2 * np.pi * f[0] * t + ph[0]) + 0.3 * np.sin(2 * np.pi * f[1] * t + ph[1])
-    q_true = np.empty((n, 4))
-    cur, steps = np.array([1.0, 0.0, 0.0, 0.0]), quat_from_rotvec(w * DT)
-    for i in range(n):
-        cur = quat_multiply(cur, steps[i])
-        q_true[i] = cur
+    q_true = chain(w)
     acc = np.einsum("nji,j->ni", dcm_from_quat(q_true), [0.0, 0.0, -G]) + rng.normal(0.0, 0.02, (n, 3))
     mag = np.einsum("nji,j->ni", dcm_from_quat(q_true), _mag_n()) + rng.normal(0.0, 0.3, (n, 3))
     gyr = w + np.radians([0.02, -0.03, 0.3]) + rng.normal(0.0, 0.002, (n, 3))
@@ -1132,11 +1129,7 @@ def test_a_magnet_fixed_to_the_body_is_fitted_and_the_field_used_less_it():
         se.run(gyr[a : a + 5000], acc[a : a + 5000], np.full(len(gyr[a : a + 5000]), DT), mag=mag[a : a + 5000])
     assert se.summary() == est.summary()
     w[6000:12000] = 0.0  # still: the same motion before and after, none during the stretch
-    q_still = np.empty((n, 4))
-    cur, steps = np.array([1.0, 0.0, 0.0, 0.0]), quat_from_rotvec(w * DT)
-    for i in range(n):
-        cur = quat_multiply(cur, steps[i])
-        q_still[i] = cur
+    q_still = chain(w)
     mag = np.einsum("nji,j->ni", dcm_from_quat(q_still), _mag_n())
     mag[6000:12000] += magnet
     acc = np.einsum("nji,j->ni", dcm_from_quat(q_still), [0.0, 0.0, -G])
@@ -1158,10 +1151,7 @@ def test_a_field_fixed_in_the_room_is_not_taken_for_a_magnet_on_the_body():
         w, acc, q_true = motion(n, seed=seed, amp=0.8)
         if level:
             w[:, :2] = 0.0
-            q_true, cur, steps = np.empty((n, 4)), np.array([1.0, 0.0, 0.0, 0.0]), quat_from_rotvec(w * DT)
-            for i in range(n):
-                cur = quat_multiply(cur, steps[i])
-                q_true[i] = cur
+            q_true = chain(w)
             acc = np.einsum("nji,j->ni", dcm_from_quat(q_true), [0.0, 0.0, -G])
         mag = np.einsum("nji,j->ni", dcm_from_quat(q_true), _mag_n())
         mag[s] += np.einsum("nji,j->ni", dcm_from_quat(q_true[s]), d)
@@ -1518,11 +1508,7 @@ def _rocking_then_turning(seed=3):
     w[~rock] = 0.25 * np.column_stack(
         [np.sin(2 * np.pi * 0.11 * tt), np.sin(2 * np.pi * 0.07 * tt + 1), np.sin(2 * np.pi * 0.05 * tt + 2)]
     )
-    q = np.empty((t.size, 4))
-    cur = np.array([1.0, 0, 0, 0])
-    for i, step in enumerate(quat_from_rotvec(w * DT)):
-        cur = quat_multiply(cur, step)
-        q[i] = cur
+    q = chain(w)
     acc = np.einsum("nji,j->ni", dcm_from_quat(q), [0.0, 0.0, -G])
     rng = np.random.default_rng(seed)
     return w + rng.normal(0.0, 0.002, w.shape), acc + rng.normal(0.0, 0.02, acc.shape), q
