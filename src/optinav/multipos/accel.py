@@ -32,7 +32,6 @@ from optinav.core.validate import as_float_array, check_positive
 from optinav.errors import OptinavError
 
 from . import gates, model
-from ._kernels import pose_moments_kernel
 
 METHODS = ("lm", "gn", "trf", "newton", "ga", "pso")
 _CORE_METHOD = {"lm": "lm", "gn": "gauss-newton", "trf": "trf", "newton": "newton", "ga": "ga", "pso": "pso"}
@@ -75,6 +74,8 @@ def pose_statistics(raw, index_ranges, *, valid=None) -> PoseStatistics:
         raise OptinavError(
             f"valid has shape {valid.shape}, the samples {raw.shape}", "pass one valid flag per sample row"
         )
+    from optinav.multipos._kernels import pose_moments_kernel  # numba: loaded on first use
+
     raw = np.ascontiguousarray(raw.reshape(-1, 3))
     # bounds as slicing takes them (negative, past the end)
     ranges = [slice(int(i0), int(i1)).indices(raw.shape[0])[:2] for i0, i1 in np.asarray(index_ranges, dtype=int)]
