@@ -31,6 +31,13 @@ def norm_residuals_kernel(theta, points, g):
 
 
 @numba.njit(cache=True, nogil=True)
+def _kept(raw, valid, masked, i):
+    """Row i is finite and, with a mask, valid."""
+    ok = math.isfinite(raw[i, 0]) and math.isfinite(raw[i, 1]) and math.isfinite(raw[i, 2])
+    return ok and (not masked or valid[i])
+
+
+@numba.njit(cache=True, nogil=True)
 def pose_moments_kernel(raw, ranges, valid):
     """Mean (P, 3), sample covariance (ddof 1, two passes: centred products) (P, 3, 3) and count (P,) of the rows
     of ``raw`` (N, 3) in each half-open range ``ranges`` (P, 2) (within [0, N]) that are finite and ``valid``
@@ -46,9 +53,9 @@ def pose_moments_kernel(raw, ranges, valid):
         s0 = s1 = s2 = 0.0
         n = 0
         for i in range(i0, i1):
-            a, b, c = raw[i, 0], raw[i, 1], raw[i, 2]
-            if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(c)) or (masked and not valid[i]):
+            if not _kept(raw, valid, masked, i):
                 continue
+            a, b, c = raw[i, 0], raw[i, 1], raw[i, 2]
             s0 += a
             s1 += b
             s2 += c
@@ -59,9 +66,9 @@ def pose_moments_kernel(raw, ranges, valid):
         m0, m1, m2 = s0 / n, s1 / n, s2 / n
         c00 = c01 = c02 = c11 = c12 = c22 = 0.0
         for i in range(i0, i1):
-            a, b, c = raw[i, 0], raw[i, 1], raw[i, 2]
-            if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(c)) or (masked and not valid[i]):
+            if not _kept(raw, valid, masked, i):
                 continue
+            a, b, c = raw[i, 0], raw[i, 1], raw[i, 2]
             a -= m0
             b -= m1
             c -= m2
