@@ -221,9 +221,11 @@ def test_imucal_example_gyro_unit_from_the_turns(tmp_path, capsys, unit, ratio):
 
 
 @needs_data
-def test_imucal_annotated_sections_by_the_default_route_name_ferraris(tmp_path, capsys):
-    """The annotated session holds only the nine cut sections: the default route (with gyro) cannot integrate
-    the turns between them, and says so with the flags that work (--method ferraris, --no-gyro)."""
+def test_imucal_annotated_sections_take_ferraris_by_default_and_lm_names_the_cut(tmp_path, capsys):
+    """The annotated session holds only the nine cut sections, named in its label column: without --method they
+    go to the Ferraris closed form (the console says why), which gives what --method ferraris gives; --method lm
+    cannot integrate the turns between the cut poses and says so with the flags that work (--method ferraris,
+    --no-gyro). Before, the default route was lm: one refusal more on the way to a calibration."""
     argv = [
         "calibrate",
         "accel",
@@ -236,12 +238,34 @@ def test_imucal_annotated_sections_by_the_default_route_name_ferraris(tmp_path, 
         "counts",
         "--gravity",
         "9.81",
+        "--rotation-angle",
+        "360",
+    ]
+    assert main([*argv, "--out", str(tmp_path / "auto.json")]) == 0
+    assert "(ferraris for the label column's nine sections)" in capsys.readouterr().err
+    assert main([*argv, "--method", "ferraris", "--out", str(tmp_path / "named.json")]) == 0
+    auto, named = (CalibrationResult.from_json(tmp_path / f) for f in ("auto.json", "named.json"))
+    assert auto.method == named.method == "ferraris"
+    for sensor in ("accelerometer", "gyroscope"):
+        for k in ("K", "b"):
+            np.testing.assert_array_equal(getattr(auto, sensor)[k], getattr(named, sensor)[k])
+    lm = [a for a in argv if a not in ("--rotation-angle", "360")] + [
+        "--method",
+        "lm",
         "--out",
         str(tmp_path / "r.json"),
     ]
-    err = _cli_error(capsys, argv)
+    err = _cli_error(capsys, lm)
     assert "cut between the poses" in err and "--method ferraris" in err and "--no-gyro" in err
-    assert main(argv + ["--no-gyro"]) == 0
+    assert main(lm + ["--no-gyro"]) == 0
+    # a Ferraris option on a log without the labels: the norm fit does not use it, as with --method lm
+    sim = tmp_path / "s.csv"
+    s = simulate("18", dwell_s=8, rest_s=5, rng=3)
+    np.savetxt(sim, np.column_stack([s.t, s.acc, s.gyr]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="")
+    err = _cli_error(
+        capsys, ["calibrate", "accel", str(sim), "--rotation-angle", "360", "--out", str(tmp_path / "q.json")]
+    )
+    assert "--method lm does not use --rotation-angle" in err and "pass --method ferraris" in err
 
 
 @needs_data
@@ -684,6 +708,24 @@ def test_raw_counts_not_taken_for_swapped_triads(tmp_path, capsys):
     out = str(tmp_path / "r.json")
     err = _cli_error(capsys, ["calibrate", "accel", src, "--rate", "204.8", "--out", out])
     assert "swapped" not in err and "raw counts?" in err and "--acc-unit counts" in err
+    # its gyro columns hold whole numbers too: both flags in one refusal (the gyro's own check comes after the fit)
+    assert "the gyroscope columns hold whole numbers too: if they are counts, add --gyro-unit counts" in err
+    err = _cli_error(capsys, ["calibrate", "accel", src, "--rate", "204.8", "--gyro-unit", "counts", "--out", out])
+    assert "--acc-unit counts" in err and "--gyro-unit" not in err
+
+
+def test_a_gyro_in_a_physical_unit_is_not_told_counts_with_the_accelerometer(tmp_path, capsys):
+    """An accelerometer in counts beside a gyro in deg/s (not whole numbers): the refusal names the accelerometer's
+    flag only."""
+    s = simulate("18", dwell_s=8, rest_s=5, rng=3)
+    path = tmp_path / "c.csv"
+    acc = np.round(s.acc / 9.80665 * 2048)
+    np.savetxt(path, np.column_stack([s.t, acc, np.degrees(s.gyr)]), delimiter=",", header="t,ax,ay,az,gx,gy,gz",
+               comments="")  # fmt: skip
+    err = _cli_error(
+        capsys, ["calibrate", "accel", str(path), "--gyro-unit", "deg/s", "--out", str(tmp_path / "r.json")]
+    )
+    assert "raw counts?" in err and "--acc-unit counts" in err and "gyro" not in err.split("at rest")[1]
 
 
 def test_swapped_triads_in_si_units_are_named(tmp_path, capsys):

@@ -49,7 +49,7 @@ def register(sub) -> None:
             Accelerometer calibration by norm observation on static poses (Gao & Zhang 2019), default method
             Levenberg–Marquardt on the per-pose means with analytic Jacobian; GA/Newton/PSO for comparison;
             'ferraris' = closed form for 6 axis poses + 3 rotations named as imucal names them (x_p … z_rot),
-            from a label column of the log or --sections.
+            from a label column of the log (then the default) or --sections.
             With gyroscope data the gyro scale, misalignment and bias come from the turns between poses
             (imu_tk's method). The result is raw = K·x + b per sensor (x in m/s^2 or rad/s, raw in the
             file's unit); see docs/file-formats.md."""),
@@ -130,7 +130,11 @@ def add_calibration_options(a) -> None:
     a.add_argument(
         "--height", dest="height_m", type=HEIGHT, metavar="M", help="height in m with --latitude (default 0)"
     )
-    a.add_argument("--method", choices=METHOD_NAMES, default="lm", help="estimator (default lm)")
+    a.add_argument(
+        "--method",
+        choices=METHOD_NAMES,
+        help="estimator (default lm; ferraris for a log whose label column names imucal's nine sections x_p … z_rot)",
+    )
     a.add_argument(
         "--model",
         choices=["auto", "full", "diagonal"],
@@ -284,7 +288,7 @@ def full_scale(text: str):
 def run_accel(args) -> int:
     from optinav.core.progress import step
     from optinav.cli.common import file_options
-    from optinav.multipos.calibrate import calibrate_data, read_session_file
+    from optinav.multipos.calibrate import calibrate_data, read_session_file, resolve_method
 
     out = output_path(args.out, (".json",), "RESULT.json", mark=RESULT_MARK)
     exports = distinct_outputs(out, [parse_export(spec) for spec in args.export])
@@ -293,6 +297,7 @@ def run_accel(args) -> int:
     options.check()
     step("read")
     data = read_session_file(args.data, options)
+    options = resolve_method(options, data)
     counts = [s for s, u in (("--acc-lsb", data.acc_unit), ("--gyro-lsb", data.gyro_unit)) if u == "counts"]
     if counts and any(fmt == "kalibr" for fmt, *_ in exports):
         # refused before the work: Kalibr's M is relative to the driver's conversion to m/s² and rad/s
@@ -301,8 +306,7 @@ def run_accel(args) -> int:
             "rad/s)",
             f"drop it here and run optinav export RESULT.json --to kalibr {' '.join(f'{c} ...' for c in counts)}",
         )
-    if not getattr(args, "quiet", False):
-        print(f"optinav: calibrating {len(data.t)} samples from {args.data} ({args.method}) ...", file=sys.stderr)
+    _say_calibrating(args, len(data.t), options.method)
     res = calibrate_data(data, options, source=str(args.data))
     step("write")
     res.to_json(out)
@@ -319,6 +323,13 @@ def run_accel(args) -> int:
 
     finish_report(args, lambda d: write_calibration_report(res, data.t, data.acc, data.gyr, d))
     return 0
+
+
+def _say_calibrating(args, n: int, method: str) -> None:
+    """The console line before the fit: how many samples, which method (and why, when the data chose it)."""
+    if not getattr(args, "quiet", False):
+        why = " for the label column's nine sections" if args.method is None and method == "ferraris" else ""
+        print(f"optinav: calibrating {n} samples from {args.data} ({method}{why}) ...", file=sys.stderr)
 
 
 def distinct_outputs(out, exports: list) -> list:

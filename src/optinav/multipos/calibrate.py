@@ -564,7 +564,7 @@ def calibrate(
         gn = _row_norms(gyro, valid)
         gyro_cv = float(np.std(gn) / np.mean(gn)) if gn.size and np.mean(gn) > 0 else float("nan")
         gates.check_swapped_triads(rest_norm, acc_unit, float(np.median(gn)), g, gyro_cv)
-    gates.check_acc_unit(rest_norm, acc_unit, g)
+    gates.check_acc_unit(rest_norm, acc_unit, g, gyr=None if gyro_unit == "counts" else gyro)
 
     if method == "ferraris":
         return _ferraris(
@@ -2298,7 +2298,7 @@ class FileOptions:
     gravity: float | None = None
     lat_deg: float | None = None
     height_m: float = 0.0
-    method: str = "lm"
+    method: str | None = None
     model: str = "auto"
     fit_samples: bool = False
     sections: str | None = None
@@ -2346,6 +2346,8 @@ class FileOptions:
             raise OptinavError(f"--latitude {self.lat_deg:g} is outside ±90°", "give the latitude in degrees")
         if self.generations is not None and self.method not in ("ga", "pso"):
             raise OptinavError("--generations applies to --method ga or pso only", "drop --generations")
+        if self.method is None:
+            return  # chosen with the data (:func:`resolve_method`), which checks again
         # options one route does not use were dropped silently: --acc-bias-instability 0.05 with --method ferraris
         # left the bias std at 0.00046 m/s^2, --gyro-bias local did not follow a drift (probe)
         ferraris = self.method == "ferraris"
@@ -2541,10 +2543,25 @@ class _Gather:
         return None if self.buf is None else self.buf[: self.n]
 
 
-def calibrate_data(data: SessionData, options: FileOptions, source: str = "") -> CalibrationResult:
-    """:func:`calibrate` of ``data`` with ``options``."""
-    o = options
+def resolve_method(options: FileOptions, data: SessionData) -> FileOptions:
+    """``options`` with the method chosen when it is None: 'ferraris' for a log with a gyroscope, without
+    ``sections``, whose label column names imucal's nine sections ``x_p … z_rot`` (its annotated sessions: cut to
+    the sections, they have no turns between the poses for the norm fit's gyro), else 'lm'; checked for options
+    the chosen route does not use."""
+    if options.method is not None:
+        return options
+    from .ferraris import labels_name_sections
+
+    ferraris = options.sections is None and data.gyr is not None and labels_name_sections(data.labels)
+    o = dataclasses.replace(options, method="ferraris" if ferraris else "lm")
     o.check()
+    return o
+
+
+def calibrate_data(data: SessionData, options: FileOptions, source: str = "") -> CalibrationResult:
+    """:func:`calibrate` of ``data`` with ``options`` (the method chosen by :func:`resolve_method` when None)."""
+    options.check()
+    o = resolve_method(options, data)
     method_options = {} if o.generations is None else {"generations": o.generations}
     sections = o.sections
     if sections is not None and data.rows is not None:

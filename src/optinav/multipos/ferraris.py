@@ -678,6 +678,14 @@ def section_name(name) -> str:
     return key if key in SECTIONS else str(name)
 
 
+def labels_name_sections(labels) -> bool:
+    """Whether a per-sample label column names all nine sections ``x_p … z_rot`` (in imucal's spelling, or in
+    capitals or with blanks around it)."""
+    if labels is None:
+        return False
+    return set(SECTIONS) <= {section_name(u) for u in np.unique(np.asarray(labels).astype(str))}
+
+
 def sections_from_labels(labels) -> dict | None:
     """The nine sections ``x_p … z_rot`` as {name: (i0, i1)} half-open sample ranges from a per-sample label
     column (imucal's annotated ``part`` column); None when the labels name none of them. Each named section

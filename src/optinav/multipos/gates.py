@@ -97,8 +97,9 @@ PHYSICAL_SCALE_TOL = 0.1
 FEW_COUNTS = 5.0
 
 
-def check_acc_unit(rest_norm: float, unit: str, g: float, option: str = "--acc-unit") -> None:
-    """One-line error when the rest norm (in ``unit``) contradicts g: names the likely unit."""
+def check_acc_unit(rest_norm: float, unit: str, g: float, option: str = "--acc-unit", gyr=None) -> None:
+    """One-line error when the rest norm (in ``unit``) contradicts g: names the likely unit; when that is raw
+    counts and the gyroscope columns ``gyr`` (read in a physical unit) hold whole numbers too, names their flag as well."""
     if unit == "counts" or not np.isfinite(rest_norm):
         return
     si = rest_norm * factor(unit)
@@ -121,9 +122,21 @@ def check_acc_unit(rest_norm: float, unit: str, g: float, option: str = "--acc-u
             f"{off:.0%} off)"
         )
         remedy = f"pass {option} counts (or {option} {guess} if the data are in {guess})"
+    if guess == "counts" and _whole_numbers(gyr):
+        # the gyro's unit check comes only after the fit: one more run to learn what the file already shows
+        remedy += "; the gyroscope columns hold whole numbers too: if they are counts, add --gyro-unit counts"
     raise OptinavError(
         f"the accelerometer reads {rest_norm:.4g} {unit} at rest ({si:.4g} m/s^2, g = {g:.5g}): {what}", remedy
     )
+
+
+def _whole_numbers(x, rows: int = 10_000) -> bool:
+    """Whether the finite values of the first ``rows`` rows of ``x`` are whole numbers, not all within ±1."""
+    if x is None:
+        return False
+    v = np.asarray(x[:rows], float)
+    v = v[np.isfinite(v)]
+    return v.size > 0 and bool(np.all(v == np.round(v))) and float(np.max(np.abs(v))) > 1
 
 
 #: coefficient of variation of an accelerometer's norm over a calibration log: it reads g in every pose and
