@@ -2281,7 +2281,8 @@ class FileOptions:
     """How to read and calibrate one log: the options of ``optinav calibrate accel``, same names and units
     (``gyro_path``/``gyro_columns``: a second file holding the gyroscope; ``datasets``: "std=name,..." text;
     ``gravity`` m/s², ``lat_deg`` degrees, ``height_m`` m, ``window``/``min_duration`` s, ``rest`` (t0, t1) s,
-    ranges (±R, or a (lo, hi) span) and ``threshold`` in raw units). Picklable, so batch workers receive it as is."""
+    ranges (±R, or a (lo, hi) span) and ``threshold`` in raw units; ``method`` None: chosen with the data,
+    :func:`resolve_method`). Picklable, so batch workers receive it as is."""
 
     columns: str | None = None
     gyro_path: str | None = None
