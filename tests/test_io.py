@@ -219,7 +219,9 @@ def test_text_errors_name_the_line_and_column(tmp_path):
     with pytest.raises(OptinavError, match="does not exist"):
         read_table(tmp_path / "missing.csv")
     with pytest.raises(OptinavError, match="unknown data file type .xls; use one of .csv"):
-        read_table(_write(tmp_path / "x.xls", "1,2\n"))
+        (tmp_path / "x.xls").write_bytes(bytes(range(256)) * 4)  # binary under a suffix optinav does not read
+        read_table(tmp_path / "x.xls")
+    assert read_table(_write(tmp_path / "y.xls", "a,b\n1,2\n"))["b"].tolist() == [2.0]  # text: read as text
     with pytest.raises(OptinavError, match="columns names 3 column\\(s\\) but .* has 4"):
         read_imu(tmp_path / "e0.csv", columns="t,ax,ay")
     with pytest.raises(OptinavError, match="header names column 't' twice"):
@@ -648,6 +650,23 @@ def test_real_ferraris_session():
     assert log.gyr[0, 0] == pytest.approx(-0.6103515625 * math.pi / 180, rel=1e-15)
     assert log.t[-1] == pytest.approx(10375 / 102.4) and log.sample[-1] == 10375
     assert log.acc_unit == "m/s^2" and log.gyro_input_unit == "deg/s"
+
+
+@pytest.mark.parametrize("name", ["LOG0001", "imu.out", "run.raw"])
+def test_a_text_log_under_no_table_suffix_is_read_by_its_content(tmp_path, name):
+    """A logger's file under no suffix or one optinav does not know was "unknown data file type (none)": a user
+    had to rename it. Text by its first bytes, it reads as its .csv copy does; a binary file (or text with more
+    than a serial capture's noise of control bytes) under such a name is still refused with the list of formats."""
+    src = _shared("example_ferraris_session.csv")
+    (tmp_path / name).write_bytes(src.read_bytes())
+    log = read_imu(tmp_path / name, rate_hz=102.4, gyro_unit="deg/s")
+    ref = read_imu(src, rate_hz=102.4, gyro_unit="deg/s")
+    for k in ("t", "acc", "gyr"):
+        np.testing.assert_array_equal(getattr(log, k), getattr(ref, k))
+    noisy = bytes([3, 7, 0x1B, 0x7F]) * 30 + src.read_bytes()[:4000]  # 90 control bytes in the first 4 KB: 2 %
+    (tmp_path / "noisy").write_bytes(noisy)
+    with pytest.raises(OptinavError, match=r"noisy: unknown data file type \(none\); use one of .csv"):
+        read_imu(tmp_path / "noisy", rate_hz=102.4)
 
 
 def test_real_annotated_session_keeps_text_labels():

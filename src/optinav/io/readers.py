@@ -735,6 +735,8 @@ def _file_kind(path: Path) -> tuple[str, bool]:
         kind, gz = "text", True
     if kind == "npz":
         _zip_is_npz(path)
+    if kind is None and not gz and _texty(head):
+        kind = "text"  # a logger's file under no table suffix (LOG0001, imu.out, run.raw): read by its content
     if kind is None or (gz and kind != "text"):
         shown = "".join(path.suffixes[-2 if gz else -1 :]) or "(none)"
         raise OptinavError(
@@ -1090,6 +1092,22 @@ _UTF16_BOMS = (b"\xff\xfe", b"\xfe\xff")
 _NOISE_BYTES = 4096
 #: what a line of such noise is read as (a line above the table, left out with a note)
 NOISE_LINE = "(binary noise)"
+
+
+#: control bytes (other than tab, line feed, form feed, carriage return) a text file's first bytes may hold, as a
+#: fraction: a serial capture's boot noise; a binary format (compressed or numbers) holds about 12 %
+TEXT_CONTROL_SHARE = 0.01
+
+
+def _texty(head: bytes) -> bool:
+    """Whether a file's first bytes are text: UTF-16 (:func:`_wide`), or no NUL and hardly any other control
+    byte (:data:`TEXT_CONTROL_SHARE`)."""
+    if _wide(head):
+        return True
+    if not head or b"\x00" in head:
+        return False
+    control = sum(head.count(bytes([c])) for c in range(32) if c not in (9, 10, 12, 13))
+    return control <= TEXT_CONTROL_SHARE * len(head)
 
 
 def _wide(head: bytes) -> bool:
