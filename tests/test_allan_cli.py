@@ -225,6 +225,34 @@ def test_a_deg_s_gyro_read_as_rad_s_is_named(tmp_path, capsys):
     assert main(["--quiet", "allan", str(f), "--gyro-unit", "deg/s", "--out", str(tmp_path / "b.json")]) == 0
 
 
+def test_a_mdps_gyro_declared_deg_s_is_named_mdps(tmp_path, capsys):
+    """The same pose with the gyro in mdps: declared deg/s it was told "looks like deg/s read as rad/s" and
+    "--gyro-unit deg/s", the unit given; now it names mdps, and --gyro-unit mdps gives the deg/s file's noise."""
+    from pathlib import Path
+
+    data = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "imucal" / "example_ferraris_session.csv"
+    if not data.is_file():
+        pytest.skip("imucal data absent")
+    rows = np.genfromtxt(data, delimiter=",", names=True)[540:1271]  # pose x_p
+    t = np.arange(rows.size) / 102.4
+    acc = [rows[f"acc_{a}"] for a in "xyz"]
+    for name, k in (("dps.csv", 1.0), ("mdps.csv", 1000.0)):
+        cols = np.column_stack([t, *acc, *(rows[f"gyr_{a}"] * k for a in "xyz")])
+        np.savetxt(tmp_path / name, cols, delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="", fmt="%.17g")
+    argv = ["allan", str(tmp_path / "mdps.csv"), "--gyro-unit", "deg/s", "--out", str(tmp_path / "a.json")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "looks like mdps read as deg/s" in err and "--gyro-unit mdps" in err, err
+    fits = []
+    for name, unit in (("mdps.csv", "mdps"), ("dps.csv", "deg/s")):
+        out = tmp_path / f"{name}.json"
+        assert main(["--quiet", "allan", str(tmp_path / name), "--gyro-unit", unit, "--out", str(out)]) == 0
+        fits.append(json.loads(out.read_text()))
+    a, b = (f["fields"]["gyroscope"]["value"]["fit"]["fields"] for f in fits)
+    for term in ("white", "bias_instability"):  # the same samples in rad/s but for the rounding of ×1000
+        np.testing.assert_allclose(a[term]["value"], b[term]["value"], rtol=1e-9)
+
+
 def test_a_moving_log_in_counts_is_refused(tmp_path, capsys):
     """A multi-position session in raw counts gave noise figures with exit 0 (the at-rest check judged only logs
     in m/s^2): the gravity direction's steadiness needs no unit."""

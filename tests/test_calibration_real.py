@@ -1021,3 +1021,56 @@ def test_default_route_on_a_log_decimated_without_a_filter_is_in_its_std(
     else:
         assert np.all(dev < 0.4 * std) and np.allclose(std, std1, rtol=0.05), (dev / std, std / std1)
         assert "anti-alias" not in err
+
+
+def test_a_st_style_log_in_mg_and_mdps_calibrates_and_applies_like_the_si_one(tmp_path, capsys):
+    """ST's MEMS drivers log mg and mdps (millidegrees per second); a gyro in mdps had no unit to declare (its
+    header's [mdps] was refused, and no --gyro-unit took it). imucal's session rewritten in mg and mdps (its column
+    names carrying the units): the same calibration, K in mg and mdps per SI unit (×1000/g and ×1000 of the
+    m/s^2 and deg/s file's), and `apply` gives the same corrected samples to the rounding of the rewrite."""
+    raw = np.genfromtxt(DATA / "example_ferraris_session.csv", delimiter=",", names=True)
+    st = tmp_path / "st.csv"
+    head = "n,gyr_x [mdps],gyr_y [mdps],gyr_z [mdps],acc_x [mg],acc_y [mg],acc_z [mg]"
+    gyr = np.column_stack([raw[f"gyr_{a}"] for a in "xyz"]) * 1000.0
+    acc = np.column_stack([raw[f"acc_{a}"] for a in "xyz"]) / 9.80665 * 1000.0
+    np.savetxt(st, np.column_stack([raw["n_samples"], gyr, acc]), delimiter=",", header=head, comments="", fmt="%.17g")
+    ours = _run(tmp_path, ["calibrate", "accel", str(st), "--rate", "102.4", "--gravity", "9.81"])
+    assert ours.units["gyroscope_raw"] == "mdps" and ours.units["accelerometer_raw"] == "mg"
+    ref = _run(tmp_path, EXAMPLE)
+    # the fits stop at their tolerance in units 1000× apart: alike to 1e-7 of the scale
+    k_g, k_a = ref.gyroscope["K"] * 1000.0, ref.accelerometer["K"] * 1000.0 / 9.80665
+    np.testing.assert_allclose(ours.gyroscope["K"], k_g, rtol=0, atol=1e-7 * np.abs(k_g).max())
+    np.testing.assert_allclose(ours.accelerometer["K"], k_a, rtol=0, atol=1e-7 * np.abs(k_a).max())
+    np.testing.assert_allclose(ours.gyroscope["b"], ref.gyroscope["b"] * 1000.0, rtol=0, atol=1e-7 * 1000.0)
+    capsys.readouterr()
+    for res, data, extra, out in (
+        (ours, st, [], "a.csv"),
+        (ref, DATA / "example_ferraris_session.csv", ["--gyro-unit", "deg/s"], "b.csv"),
+    ):
+        res.to_json(tmp_path / f"{out}.json")
+        argv = ["--quiet", "apply", str(tmp_path / f"{out}.json"), str(data), "--rate", "102.4", *extra]
+        assert main([*argv, "--out", str(tmp_path / out)]) == 0
+    from optinav.io import read_imu
+
+    a, b = read_imu(tmp_path / "a.csv"), read_imu(tmp_path / "b.csv")
+    np.testing.assert_allclose(a.acc, b.acc, atol=1e-6)  # m/s^2
+    np.testing.assert_allclose(a.gyr, b.gyr, atol=1e-7)  # rad/s
+    # declared by the flag instead of the header, and named in the unit check when the header is dropped
+    bare = tmp_path / "bare.csv"
+    bare.write_text("\n".join(["n,gx,gy,gz,ax,ay,az", *st.read_text().splitlines()[1:]]) + "\n")
+    cal = ["calibrate", "accel", str(bare), "--rate", "102.4", "--gravity", "9.81", "--acc-unit", "mg"]
+    same = _run(tmp_path, [*cal, "--gyro-unit", "mdps"])
+    np.testing.assert_array_equal(same.gyroscope["K"], ours.gyroscope["K"])
+    assert main([*cal, "--gyro-unit", "deg/s", "--out", str(tmp_path / "x.json")]) == 2
+    assert "the data look like mdps" in capsys.readouterr().err
+
+
+def test_raw_counts_for_attitude_are_named_counts_not_deg_s(tmp_path, capsys):
+    """imucal's annotated session (raw counts, gyro peaks at 8877) for `optinav attitude` with only --rate was told
+    "it looks like deg/s declared rad/s; --gyro-unit deg/s", and then, with that flag, that it was beyond any range:
+    8877 read as deg/s is beyond any gyro too, so the first message names counts (or mdps) and the accelerometer."""
+    argv = ["attitude", str(DATA / "annotated_session.csv"), "--rate", "204.8", "--out", str(tmp_path / "a.csv")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--gyro-unit deg/s" not in err and "(8877 in the file)" in err and "raw counts?" in err
+    assert "accelerometer's median norm 2060 is not g either" in err and "optinav calibrate accel" in err

@@ -14,7 +14,7 @@ import numpy as np
 
 from optinav.attitude.methods import IFRAME_DEFAULTS
 from optinav.core.rotations import frame_name
-from optinav.core.units import G_STANDARD
+from optinav.core.units import G_STANDARD, factor
 from optinav.core.validate import mask_runs
 from optinav.errors import OptinavError
 
@@ -1298,6 +1298,9 @@ def gravity_share(bins: np.ndarray, sums: np.ndarray, dt: float, na, ng: np.ndar
     return float(np.median(_norm(means[still]))) / med
 
 
+#: a gyro's largest range, rad/s (4000 °/s): a peak beyond it is in another unit than declared
+GYRO_MAX_RAD_S = 70.0
+
 #: percentile of the row norms that tells a gyro from an accelerometer: a gyro at rest reads near zero, an
 #: accelerometer reads g in any orientation (only free fall takes it near zero)
 LOW_PERCENTILE = 5.0
@@ -1336,16 +1339,21 @@ def check_norms(
         gravity = share * G_STANDARD
         if gravity > 3 * G_STANDARD:
             raise _acc_unit_error(med_a, gravity, "where the gyro is still")
-    if peak > 70.0:  # 4000 °/s: beyond any MEMS gyro range in rad/s
-        if gyro_unit in (None, "rad/s"):
+    if peak > GYRO_MAX_RAD_S:
+        declared = peak / factor(gyro_unit or "rad/s")  # the number in the file
+        if gyro_unit in (None, "rad/s") and declared * factor("deg/s") <= GYRO_MAX_RAD_S:
             raise OptinavError(
                 f"the gyro peaks at {peak:.0f} rad/s: it looks like deg/s declared rad/s",
                 "declare the unit with --gyro-unit deg/s",
             )
+        # as deg/s beyond any range too (imucal's annotated session, counts: 8877): told deg/s, the user was refused
+        # once more before hearing of counts
+        acc = f"; the accelerometer's median norm {med_a:.4g} is not g either" if med_a > 3 * G_STANDARD else ""
         raise OptinavError(
-            f"the gyro peaks at {np.degrees(peak):.3g} deg/s as declared in {gyro_unit}, beyond any gyro's range: the "
-            "data are in a finer unit (mdps? raw counts?)",
-            "check --gyro-unit: raw counts need their calibration (optinav apply) first",
+            f"the gyro peaks at {np.degrees(peak):.3g} deg/s as declared in {gyro_unit or 'rad/s'} ({declared:.4g} "
+            f"in the file), beyond any gyro's range: the data are in a finer unit (mdps? raw counts?){acc}",
+            "pass --gyro-unit mdps for millidegrees per second; raw counts need their calibration first "
+            "(optinav calibrate accel, then optinav apply)",
         )
 
 

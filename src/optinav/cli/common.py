@@ -150,7 +150,7 @@ def add_input_options(p, *, gyro: bool = True, unit_default: tuple[str, str] = (
     if gyro:
         p.add_argument(
             "--gyro-unit",
-            choices=["counts", "deg/s", "rad/s"],
+            choices=["counts", "deg/s", "mdps", "rad/s"],
             help=f"gyroscope unit in the file (default: as declared, else {unit_default[1]})",
         )
     p.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], help="unit of the time column (default s)")

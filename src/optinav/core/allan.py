@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from optinav.core.results import Result
-from optinav.core.units import G_STANDARD, GRAVITY_OUT, GRAVITY_OUT_REMEDY
+from optinav.core.units import G_STANDARD, GRAVITY_OUT, GRAVITY_OUT_REMEDY, factor
 from optinav.core.validate import as_float_array, check_positive, mask_runs
 from optinav.errors import OptinavError
 
@@ -1483,6 +1483,7 @@ class _GyroAtRest:
 
     def __init__(self):
         self.sum, self.d2, self.n, self.nd, self.last, self.whole = np.zeros(3), 0.0, 0, 0, None, True
+        self.declared = "rad/s"  # the file's unit, converted to rad/s before the sums
 
     def add(self, g: np.ndarray) -> None:
         if not g.shape[0]:
@@ -1503,17 +1504,29 @@ class _GyroAtRest:
         # white noise of per-sample std σ: first differences have variance 2σ² per axis; N = σ·√dt
         dens = float(np.sqrt(self.d2 / (2.0 * 3.0 * self.nd) * dt))
         if rate > GYRO_REST_MAX or dens > GYRO_N_MAX:
+            # the finer units that make both plausible: mdps declared deg/s was told "deg/s read as rad/s", the unit
+            # already given
+            k = factor(self.declared)
+            finer = [
+                u
+                for u in ("deg/s", "mdps")
+                if factor(u) < k and rate * factor(u) / k <= GYRO_REST_MAX and dens * factor(u) / k <= GYRO_N_MAX
+            ]
             # whole numbers are a raw log's: counts read as deg/s gave N 16× off with exit 0
+            looks = (
+                "looks like raw counts (its samples are whole numbers)"
+                if self.whole
+                else f"looks like {finer[0]} read as {self.declared}"
+                if finer
+                else f"is in a finer unit than {self.declared} (mdps? raw counts?)"
+            )
+            other = f"--gyro-unit {finer[0]}" if finer else "--gyro-unit mdps for millidegrees per second"
             raise OptinavError(
-                f"the gyro reads {rate:.3g} rad/s at rest with a noise density of {dens:.3g} rad/s/√Hz, beyond any "
-                f"MEMS gyro in rad/s (at most {GYRO_REST_MAX:.2g} rad/s at rest, {GYRO_N_MAX:.2g} rad/s/√Hz): it "
-                + (
-                    "looks like raw counts (its samples are whole numbers)"
-                    if self.whole
-                    else "looks like deg/s read as rad/s"
-                ),
-                "declare the unit with --gyro-unit "
-                + ("counts (then calibrate and apply for SI noise), or --gyro-unit deg/s" if self.whole else "deg/s"),
+                f"the gyro reads {rate:.3g} rad/s at rest with a noise density of {dens:.3g} rad/s/√Hz as declared in "
+                f"{self.declared}, beyond any MEMS gyro (at most {GYRO_REST_MAX:.2g} rad/s at rest, "
+                f"{GYRO_N_MAX:.2g} rad/s/√Hz): it {looks}",
+                "declare the unit with "
+                + (f"--gyro-unit counts (then calibrate and apply for SI noise), or {other}" if self.whole else other),
             )
 
 
@@ -1792,6 +1805,7 @@ def analyse_blocks(
         if log.acc is not None and len(log.acc) and np.all(np.isfinite(log.acc)):
             at_rest.add(log.acc, counts=log.acc_unit == "counts")  # the gyro's analysis too needs the log at rest
         if "gyroscope" in angles and log.gyro_unit == "rad/s":
+            gyro_rest.declared = log.gyro_input_unit or "rad/s"
             gyro_rest.add(log.gyr)
     if not angles:
         raise OptinavError(f"{source or 'the log'} holds no samples", "pass a static log")

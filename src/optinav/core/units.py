@@ -37,6 +37,7 @@ UNITS: dict[str, float] = {
     # angular rate → rad/s
     "rad/s": 1.0,
     "deg/s": DEG,
+    "mdps": DEG * 1e-3,  # millidegrees per second (ST MEMS drivers)
     "deg/h": DEG / HOUR,
     "deg/hr": DEG / HOUR,
     "rpm": 2 * math.pi / 60.0,
@@ -89,6 +90,7 @@ _ALIASES = {
     "°": "deg",
     "°/h": "deg/h",
     "°/s": "deg/s",
+    "mdeg/s": "mdps",
     "°/√h": "deg/sqrt(h)",
     "μg/√Hz": "ug/sqrt(Hz)",
     "µg/√Hz": "ug/sqrt(Hz)",

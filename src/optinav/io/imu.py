@@ -87,6 +87,10 @@ GYRO_UNITS = {
     "rad/sec": "rad/s",
     "rad s^-1": "rad/s",
     "deg s^-1": "deg/s",
+    "mdps": "mdps",
+    "mdeg/s": "mdps",
+    "millidegrees/s": "mdps",
+    "mdeg/sec": "mdps",
 }
 #: time units → seconds per unit
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
@@ -121,7 +125,7 @@ _TIME_SPELLINGS = {
 }
 _CANONICAL = {
     "acc": ("counts", "g", "mg", "m/s^2"),
-    "gyro": ("counts", "deg/s", "rad/s"),
+    "gyro": ("counts", "deg/s", "mdps", "rad/s"),
     "time": ("s", "ms", "us", "ns"),
 }
 
@@ -2192,10 +2196,10 @@ def _log_of(
     if main.gyro is not None:
         gpart = parts[-1]
         gyro_in = _resolve_unit("gyro", gyro_u, gpart if len(parts) == 2 else main, "gyro_unit", gyro_d)
-        gyro = main.gyro if gyro_in != "deg/s" else to_si(main.gyro, "deg/s")
+        gyro = to_si(main.gyro, gyro_in) if gyro_in in ("deg/s", "mdps") else main.gyro
         if main.gyro_clock is not None:
             tg, own = main.gyro_clock
-            main.gyro_clock = (tg, own if gyro_in != "deg/s" else to_si(own, "deg/s"))
+            main.gyro_clock = (tg, to_si(own, gyro_in) if gyro_in in ("deg/s", "mdps") else own)
     log = ImuLog(
         t=t,
         acc=acc,

@@ -60,7 +60,7 @@ MIN_TURN_DEG = 20.0
 NO_TURN_SIGMA = 5.0
 
 _ACC_UNITS = ("m/s^2", "g", "mg")
-_GYRO_UNITS = ("rad/s", "deg/s")
+_GYRO_UNITS = ("rad/s", "deg/s", "mdps")
 
 
 def distinct_directions(dirs, tol: float = float(np.radians(SAME_POSE_DEG))) -> np.ndarray:
