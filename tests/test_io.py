@@ -191,7 +191,7 @@ def test_units_convert_to_si_and_counts_are_kept(tmp_path):
     assert read_imu(path, acc_unit="mg").acc[1, 0] == pytest.approx(0.5e-3 * 9.80665, rel=1e-15)
     for kw, accepted in (
         ({"acc_unit": "ug"}, "counts, g, mg, m/s\\^2"),
-        ({"gyro_unit": "deg/h"}, "counts, deg/s, rad/s"),
+        ({"gyro_unit": "deg/h"}, "counts, deg/s, mdps, rad/s"),
         ({"time_unit": "min"}, "s, ms, us, ns"),
     ):
         with pytest.raises(OptinavError, match=f"unknown {next(iter(kw))} .*use one of: {accepted}"):
