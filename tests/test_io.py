@@ -663,6 +663,14 @@ def test_a_text_log_under_no_table_suffix_is_read_by_its_content(tmp_path, name)
     ref = read_imu(src, rate_hz=102.4, gyro_unit="deg/s")
     for k in ("t", "acc", "gyr"):
         np.testing.assert_array_equal(getattr(log, k), getattr(ref, k))
+    # a result, a configuration or notes passed as data are refused by their suffix, as before, not parsed
+    (tmp_path / "r.json").write_text('{"schema": "optinav.result",\n "version": 1}\n')
+    with pytest.raises(OptinavError, match=r"r.json: unknown data file type .json; use one of .csv"):
+        read_imu(tmp_path / "r.json", rate_hz=102.4)
+    # a text file under an unknown suffix that is no table says it was read as text for want of a known suffix
+    (tmp_path / "bad.raw").write_text("t,ax,ay,az\n1,2,3\n")
+    with pytest.raises(OptinavError, match=r"\(read as text: its suffix .raw names no format optinav reads\)"):
+        read_imu(tmp_path / "bad.raw")
     noisy = bytes([3, 7, 0x1B, 0x7F]) * 30 + src.read_bytes()[:4000]  # 90 control bytes in the first 4 KB: 2 %
     (tmp_path / "noisy").write_bytes(noisy)
     with pytest.raises(OptinavError, match=r"noisy: unknown data file type \(none\); use one of .csv"):

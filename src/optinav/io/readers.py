@@ -57,6 +57,10 @@ SUFFIXES: dict[str, str] = {
     ".mcap": "rosbag",
     ".ulg": "ulog",
 }
+#: suffixes of text files that hold no table of samples (a result, a configuration or notes passed as data):
+#: refused by their suffix, where other unknown suffixes are read as text (:func:`_file_kind`)
+NOT_TABLES = (".json", ".jsonl", ".yaml", ".yml", ".md", ".rst", ".html", ".htm", ".xml", ".toml", ".ini", ".cfg",
+              ".py", ".ipynb", ".calib")  # fmt: skip
 #: column names (normalized, see :func:`normalize_name`) whose cells may be text: kept as a str array
 LABEL_COLUMNS = ("part", "label", "labels", "section", "segment", "pose", "phase")
 #: positional column names that skip a column
@@ -298,9 +302,15 @@ def with_lost_rows(values: np.ndarray, bad_rows: np.ndarray, rows: int) -> np.nd
 def _text_despite_suffix(path: Path, exc: OptinavError) -> OptinavError:
     """``exc`` from reading ``path`` as text, with the hint that it holds text when its suffix names a binary
     format (.npz, .mat, .h5, …); unchanged for a text suffix."""
-    if SUFFIXES.get(_suffix(path), "text") == "text" or "despite its" in exc.cause:
+    suffix = _suffix(path)
+    if "despite its" in exc.cause or "read as text" in exc.cause:
         return exc
-    return OptinavError(f"{exc.cause} (the file holds text despite its {_suffix(path)} suffix)", exc.remedy)
+    if suffix not in SUFFIXES:  # none, or one optinav does not know: read as text by its content
+        shown = suffix or "(none)"
+        return OptinavError(f"{exc.cause} (read as text: its suffix {shown} names no format optinav reads)", exc.remedy)
+    if SUFFIXES[suffix] == "text":
+        return exc
+    return OptinavError(f"{exc.cause} (the file holds text despite its {suffix} suffix)", exc.remedy)
 
 
 def load_table(
@@ -735,7 +745,7 @@ def _file_kind(path: Path) -> tuple[str, bool]:
         kind, gz = "text", True
     if kind == "npz":
         _zip_is_npz(path)
-    if kind is None and not gz and _texty(head):
+    if kind is None and not gz and suffix not in NOT_TABLES and _texty(head):
         kind = "text"  # a logger's file under no table suffix (LOG0001, imu.out, run.raw): read by its content
     if kind is None or (gz and kind != "text"):
         shown = "".join(path.suffixes[-2 if gz else -1 :]) or "(none)"
