@@ -586,7 +586,7 @@ def _part_spec(
         {
             "names": positional,
             "only": list(mapping.values()) or None,
-            "text_columns": LABEL_COLUMNS + FRAME_COLUMNS + label_sources,
+            "text_columns": LABEL_COLUMNS + FRAME_COLUMNS + SENSOR_COLUMNS + label_sources,
             "topic": topic,
             "needed": needed,
             "skip_bad_lines": bool(skip_bad_lines),
@@ -782,6 +782,96 @@ def _one_frame(table: Table) -> None:
                     "rows; read as one log they would mix the sensors",
                     f"read one with --topic @{frames[0]} (its rows alone), or the bag itself with --topic TOPIC@FRAME",
                 )
+
+
+#: columns naming each row's sensor in a "long" log, one row per sensor sample (``time, sensor, x, y, z``: custom
+#: loggers, Android event dumps), normalized
+SENSOR_COLUMNS = ("sensor", "sensor_type", "sensortype", "sensor_name", "sensorname", "type")
+#: a long log's shared value columns, normalized
+_LONG_AXES = (("x", "y", "z"), ("value_x", "value_y", "value_z"), ("values_0", "values_1", "values_2"))
+#: a long log's sensor names (lower case, letters and digits only, Android's ``android.sensor.`` dropped) → triad
+_SENSOR_KINDS = {
+    **dict.fromkeys(("acc", "accel", "acce", "accl", "accelerometer", "accelerometers"), "acc"),
+    **dict.fromkeys(("gyr", "gyro", "gyros", "gyroscope", "gyroscopes"), "gyro"),
+    **dict.fromkeys(("mag", "magn", "magnetometer", "magneticfield", "compass"), "mag"),
+    **dict.fromkeys(("accelerometeruncalibrated", "accuncalibrated"), "acc uncalibrated"),
+    **dict.fromkeys(("gyroscopeuncalibrated", "gyrouncalibrated"), "gyro uncalibrated"),
+    **dict.fromkeys(("magneticfielduncalibrated", "magnetometeruncalibrated"), "mag uncalibrated"),
+}
+#: Android's sensor type numbers (android.hardware.Sensor.TYPE_*) of the triads, in a numeric type column
+_ANDROID_TYPES = {
+    1: "acc",
+    4: "gyro",
+    2: "mag",
+    35: "acc uncalibrated",
+    16: "gyro uncalibrated",
+    14: "mag uncalibrated",
+}
+#: the standard names of each triad's axes
+_TRIAD_NAMES = {"acc": ("ax", "ay", "az"), "gyro": ("gx", "gy", "gz"), "mag": ("mx", "my", "mz")}
+
+
+def _sensor_kind(value) -> str | None:
+    """The triad a long log's sensor name (or Android type number) names, None for another sensor."""
+    if isinstance(value, (int, float, np.integer, np.floating)):
+        return _ANDROID_TYPES.get(int(value)) if float(value).is_integer() else None
+    key = re.sub(r"[^a-z0-9]", "", str(value).strip().lower().removeprefix("android.sensor."))
+    return _SENSOR_KINDS.get(key)
+
+
+def _long_log(table: Table, keep: tuple[str, ...]) -> bool:
+    """A long log (one row per sensor sample: a :data:`SENSOR_COLUMNS` column naming the sensor, shared value
+    columns x, y, z) rewritten in place as one triad per sensor — ``ax…``, ``gx…``, ``mx…``, NaN on the other
+    sensors' rows, as a multi record's blank cells — keeping the rows of the triads ``keep`` ("acc", "gyro",
+    "mag"); a triad's uncalibrated rows stand in for it only where its calibrated ones are absent. True when it
+    was one (``table.meta["long_log"]`` says how it was read). Numeric type columns are read as Android's."""
+    norm = table.normal_names()
+    col = next((norm[k] for k in SENSOR_COLUMNS if k in norm), None)
+    axes = next((tuple(norm[a] for a in names) for names in _LONG_AXES if all(a in norm for a in names)), None)
+    if col is None or axes is None:
+        return False
+    labels = np.asarray(table.data[col])
+    if labels.ndim != 1:
+        return False
+    values = np.unique(labels)
+    kinds = {v: _sensor_kind(v) for v in values.tolist()}
+    if not any(k is not None and k.split()[0] in ("acc", "gyro") for k in kinds.values()):
+        return False
+    chosen = {}  # triad → the label values read as it
+    for triad in ("acc", "gyro", "mag"):
+        own = [v for v, k in kinds.items() if k == triad] or [
+            v for v, k in kinds.items() if k == f"{triad} uncalibrated"
+        ]
+        if own:
+            chosen[triad] = own
+    rows = {t: np.isin(labels, v) for t, v in chosen.items() if t in keep}
+    kept = np.zeros(labels.size, bool)
+    for r in rows.values():
+        kept |= r
+    n = labels.size
+    x = [np.asarray(table.data[a], float) for a in axes]
+    for a in (col, *axes):
+        table.data.pop(a)
+        table.units.pop(a, None)
+    for t, r in rows.items():
+        for name, v in zip(_TRIAD_NAMES[t], x):
+            table.data[name] = np.where(r, v, np.nan)
+    table.data = {k: v[kept] if v.ndim and v.shape[0] == n else v for k, v in table.data.items()}
+
+    def shown(v) -> str:  # Android's type numbers as written, not as floats
+        return f"{int(v)} (Android's type)" if isinstance(v, float) and v.is_integer() else str(v)
+
+    read = "; ".join(
+        f"{', '.join(map(shown, chosen[t]))} as the {'accelerometer' if t == 'acc' else 'gyroscope' if t == 'gyro' else 'magnetometer'}"
+        for t in chosen
+        if t in keep
+    )
+    other = [shown(v) for v in values.tolist() if not any(v in vs for t, vs in chosen.items() if t in keep)]
+    whose = "the magnetometer's" if keep == ("mag",) else "the accelerometer's or gyroscope's"
+    table.meta["long_log"] = f"column {col!r} naming each row's sensor: {read or 'none read'}" + (
+        f" (the rows of {', '.join(other[:6])}{', …' if len(other) > 6 else ''} are not {whose})" if other else ""
+    )
+    return True
 
 
 def _px4(table: Table, found: dict, candidates: dict, implied: dict) -> None:
@@ -1135,6 +1225,8 @@ def _sensor_rows(v: np.ndarray) -> np.ndarray:
 def _multi_record(part: _Part) -> bool:
     """Whether ``part`` holds Physics Toolbox's g-force meter and gyroscope (``gFx…``, ``wx…``) with a time column:
     its multi record, each row written when one of its sensors gives a sample (:func:`_split_sensors`)."""
+    if "long_log" in part.table.meta:  # read whole: a block may hold one sensor's rows only
+        return True
     names = {k: [normalize_name(s)[0] for s in part.srcs.get(k, ())] for k in ("acc", "gyro")}
     return part.t is not None and names["acc"] == list(_PTB_GFORCE) and names["gyro"] == list(_PTB_GYRO)
 
@@ -1148,6 +1240,15 @@ def _split_sensors(part: _Part) -> _Part | None:
     sample of both). Read as one log, the rows would pair each sample with a repeated or a blank one."""
     if not _multi_record(part):
         return None
+    if "long_log" in part.table.meta:
+        if part.t is None:
+            raise OptinavError(
+                f"{part.path.name}: each row is one sensor's sample ({part.table.meta['long_log']}), and without a "
+                "time column the sensors' samples cannot be put in time",
+                "keep the time column of the log (its name: t, time, timestamp, …)",
+            )
+        if part.acc is None or part.gyro is None:
+            return None  # one triad's rows only: its samples
     rows = {"accelerometer": _sensor_rows(part.acc), "gyroscope": _sensor_rows(part.gyro)}
     if all(r.all() for r in rows.values()):
         return None
@@ -1179,7 +1280,11 @@ def _split_sensors(part: _Part) -> _Part | None:
             setattr(part, name, v[ra])
     part.n = int(np.count_nonzero(ra))
     part.finite.discard("gyro")
-    table.meta["multi_record"] = f"{part.n} of its {n} rows, the gyroscope on its {gyro.n}"
+    on = f"{part.n} of its {n} rows, the gyroscope on its {gyro.n}"
+    if "long_log" in table.meta:
+        table.meta["long_log"] += f"; the accelerometer on {on}"
+    else:
+        table.meta["multi_record"] = on
     return gyro
 
 
@@ -1504,6 +1609,8 @@ def _part_of(
     passed_over |= _headphone_split(table)
     passed_over |= _ronin(table)
     _one_frame(table)
+    if not mapping:
+        _long_log(table, ("acc", "gyro"))
     for key in table.data:
         if key in mapped_sources or key in SKIP_NAMES or key in passed_over:
             continue
@@ -2401,6 +2508,7 @@ _LAYOUT_NOTES = {
     "acceleration (gravity taken out) and gravity passed over, no accelerometer",
     "multi_record": "Physics Toolbox's multi record (each row one sensor's sample, the others' cells blank or "
     "repeated): the accelerometer read on {v}",
+    "long_log": "one row per sensor sample, {v}",
     "text_left_out": "column(s) {v} hold text and were left out (map one with label=NAME in columns if it names "
     "the poses)",
 }
@@ -2894,7 +3002,9 @@ def read_mag(
     refuse_as_one_sensor(source, "--mag-file")
     path = source.path if isinstance(source, ExportMember) else Path(source)
     kw = {"delimiter": delimiter, "skip_bad_lines": bool(skip_bad_lines)}
+    kw["text_columns"] = LABEL_COLUMNS + SENSOR_COLUMNS
     table = source.load(**kw) if isinstance(source, ExportMember) else load_table(path, **kw)
+    long = columns is None and _long_log(table, ("mag",))  # its rows of the magnetometer, as mx, my, mz
     found = list(table.data)
     if columns is not None:
         names, signs = mag_names(columns)
@@ -2931,7 +3041,7 @@ def read_mag(
     t = np.asarray(part.t, float) * TIME_UNITS[unit]
     mag = np.asarray(part.gyro, float) * signs
     what = f"{path.name} (columns {', '.join(names)})"
-    if multi_record:
+    if multi_record and not long:  # a long log's rows are the magnetometer's samples already
         rows = _sensor_rows(mag)
         if np.count_nonzero(rows) < 2:
             raise OptinavError(
