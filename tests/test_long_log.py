@@ -130,3 +130,17 @@ def test_a_9d_attitude_of_a_long_log_is_that_of_its_columns(tmp_path):
         tab = read_table(out)
         q.append(np.column_stack([tab[k] for k in ("qw", "qx", "qy", "qz")]))
     np.testing.assert_array_equal(q[1], q[0])
+
+
+def test_a_device_name_column_beside_the_triads_is_left_out_as_before(tmp_path):
+    """A 'sensor' column holding the device's name on every row beside ax … gz is no long log: left out with the
+    note any unread text column gets, the triads read as they stand."""
+    t, acc, gyr = _session()
+    path = tmp_path / "w.csv"
+    with open(path, "w") as f:
+        f.write("sensor,t,ax,ay,az,gx,gy,gz\n")
+        for i in range(500):
+            f.write(f"MPU6050,{float(t[i])!r},{','.join(repr(float(v)) for v in (*acc[i], *gyr[i]))}\n")
+    log = read_imu(path, gyro_unit="deg/s")
+    np.testing.assert_array_equal(log.acc, acc[:500])
+    assert any("column(s) 'sensor' hold text and were left out" in n for n in log.notes)

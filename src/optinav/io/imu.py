@@ -820,6 +820,22 @@ def _sensor_kind(value) -> str | None:
 
 
 def _long_log(table: Table, keep: tuple[str, ...]) -> bool:
+    """:func:`_long_rows`; when the table is no long log, a text column of :data:`SENSOR_COLUMNS` (a device's name
+    on every row) is left out with a note, as any text column nothing reads."""
+    if _long_rows(table, keep):
+        return True
+    text = [k for k in list(table.data) if normalize_name(k)[0] in SENSOR_COLUMNS and table.data[k].dtype.kind in "USO"]
+    for k in text:
+        table.data.pop(k)
+        table.units.pop(k, None)
+    if text:
+        shown = ", ".join(map(repr, text))
+        was = table.meta.get("text_left_out")
+        table.meta["text_left_out"] = f"{was}, {shown}" if was else shown
+    return False
+
+
+def _long_rows(table: Table, keep: tuple[str, ...]) -> bool:
     """A long log (one row per sensor sample: a :data:`SENSOR_COLUMNS` column naming the sensor, shared value
     columns x, y, z) rewritten in place as one triad per sensor — ``ax…``, ``gx…``, ``mx…``, NaN on the other
     sensors' rows, as a multi record's blank cells — keeping the rows of the triads ``keep`` ("acc", "gyro",
