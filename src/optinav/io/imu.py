@@ -807,8 +807,9 @@ _ANDROID_TYPES = {
     16: "gyro uncalibrated",
     14: "mag uncalibrated",
 }
-#: the standard names of each triad's axes
+#: the standard names of each triad's axes, and the triad in words
 _TRIAD_NAMES = {"acc": ("ax", "ay", "az"), "gyro": ("gx", "gy", "gz"), "mag": ("mx", "my", "mz")}
+_TRIAD_WORDS = {"acc": "accelerometer", "gyro": "gyroscope", "mag": "magnetometer"}
 
 
 def _sensor_kind(value) -> str | None:
@@ -877,11 +878,7 @@ def _long_rows(table: Table, keep: tuple[str, ...]) -> bool:
     def shown(v) -> str:  # Android's type numbers as written, not as floats
         return f"{int(v)} (Android's type)" if isinstance(v, float) and v.is_integer() else str(v)
 
-    read = "; ".join(
-        f"{', '.join(map(shown, chosen[t]))} as the {'accelerometer' if t == 'acc' else 'gyroscope' if t == 'gyro' else 'magnetometer'}"
-        for t in chosen
-        if t in keep
-    )
+    read = "; ".join(f"{', '.join(map(shown, chosen[t]))} as the {_TRIAD_WORDS[t]}" for t in chosen if t in keep)
     other = [shown(v) for v in values.tolist() if not any(v in vs for t, vs in chosen.items() if t in keep)]
     whose = "the magnetometer's" if keep == ("mag",) else "the accelerometer's or gyroscope's"
     table.meta["long_log"] = f"column {col!r} naming each row's sensor: {read or 'none read'}" + (
@@ -3017,8 +3014,11 @@ def read_mag(
     """
     refuse_as_one_sensor(source, "--mag-file")
     path = source.path if isinstance(source, ExportMember) else Path(source)
-    kw = {"delimiter": delimiter, "skip_bad_lines": bool(skip_bad_lines)}
-    kw["text_columns"] = LABEL_COLUMNS + SENSOR_COLUMNS
+    kw = {
+        "delimiter": delimiter,
+        "skip_bad_lines": bool(skip_bad_lines),
+        "text_columns": LABEL_COLUMNS + SENSOR_COLUMNS,
+    }
     table = source.load(**kw) if isinstance(source, ExportMember) else load_table(path, **kw)
     long = columns is None and _long_log(table, ("mag",))  # its rows of the magnetometer, as mx, my, mz
     found = list(table.data)
