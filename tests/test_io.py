@@ -850,3 +850,41 @@ def test_a_unit_implied_by_a_name_yields_to_the_option(tmp_path):
     path.write_text("header.stamp [ns],ax,ay,az,gx,gy,gz\n" + rows)
     with pytest.raises(OptinavError, match="declares ns but time_unit='s' was passed"):
         read_imu(path, time_unit="s")
+
+
+@pytest.mark.parametrize(
+    "head, acc_k, gyr_k",
+    [
+        ("time,acc_x_mg,acc_y_mg,acc_z_mg,gyr_x_mdps,gyr_y_mdps,gyr_z_mdps", G_STANDARD * 1e-3, math.pi / 180e3),
+        ("t,AccX_g,AccY_g,AccZ_g,GyroX_dps,GyroY_dps,GyroZ_dps", G_STANDARD, math.pi / 180),
+        ("timestamp,imu_ax,imu_ay,imu_az,imu_gx,imu_gy,imu_gz", 1.0, 1.0),
+        ("t,ax,ay,az,imu0_gx,imu0_gy,imu0_gz", 1.0, 1.0),
+    ],
+)
+def test_axis_names_with_a_unit_after_or_an_imu_word_before(tmp_path, head, acc_k, gyr_k):
+    """Loggers write the unit after the axis (acc_x_mg, GyroX_dps) or a word before it (imu_ax): such files were
+    "no accelerometer or gyroscope data". The unit after the name is the column's declared unit."""
+    rng = np.random.default_rng(3)
+    acc, gyr = rng.normal(0, 1, (50, 3)) + [0, 0, 1000], rng.normal(0, 100, (50, 3))
+    path = tmp_path / "u.csv"
+    np.savetxt(path, np.column_stack([np.arange(50) * 0.01, acc, gyr]), delimiter=",", header=head, comments="")
+    log = read_imu(path)
+    np.testing.assert_allclose(log.acc, acc * acc_k, rtol=1e-12)
+    np.testing.assert_allclose(log.gyr, gyr * gyr_k, rtol=1e-12)
+
+
+def test_a_word_before_an_axis_name_does_not_stand_beside_the_exact_name(tmp_path):
+    """raw_ax … beside ax … (a logger's raw and scaled columns) keeps the exactly named ones, as before; two IMUs'
+    imu0_ax and imu1_ax are named both, to choose with --columns."""
+    rng = np.random.default_rng(4)
+    cols = rng.normal(0, 1, (50, 9))
+    path = tmp_path / "r.csv"
+    np.savetxt(path, np.column_stack([np.arange(50) * 0.01, cols]), delimiter=",",
+               header="t,ax,ay,az,gx,gy,gz,raw_ax,raw_ay,raw_az", comments="")  # fmt: skip
+    np.testing.assert_array_equal(read_imu(path).acc, cols[:, :3])
+    two = tmp_path / "two.csv"
+    np.savetxt(two, np.column_stack([np.arange(50) * 0.01, cols[:, :6], cols[:, :6]]), delimiter=",",
+               header="t,imu0_ax,imu0_ay,imu0_az,imu0_gx,imu0_gy,imu0_gz,imu1_ax,imu1_ay,imu1_az,imu1_gx,imu1_gy,imu1_gz",
+               comments="")  # fmt: skip
+    with pytest.raises(OptinavError, match="columns 'imu0_ax' and 'imu1_ax' both look like 'ax'"):
+        read_imu(two)

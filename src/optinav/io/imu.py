@@ -1603,6 +1603,50 @@ def _unreadable_triad(table: Table, found: dict) -> None:
             )
 
 
+#: a unit written after an axis's name (``acc_x_mg``, ``gyro_x_dps``), normalized, and the unit it is
+_NAME_UNITS = {
+    "mg": "mg",
+    "g": "g",
+    "ms2": "m/s^2",
+    "mps2": "m/s^2",
+    "m_s2": "m/s^2",
+    "mdps": "mdps",
+    "dps": "deg/s",
+    "degs": "deg/s",
+    "deg_s": "deg/s",
+    "rads": "rad/s",
+    "rad_s": "rad/s",
+}
+#: words before an axis's name that name no other quantity (``imu_ax``, ``imu0_gx``, ``raw_ax``)
+_NAME_PREFIX = re.compile(r"^(imu\d*|sensor\d*|raw|data|meas)_")
+
+
+def _loose_alias(key: str) -> tuple[str | None, str | None]:
+    """(standard name, unit) of a column named like a triad's axis after a word of :data:`_NAME_PREFIX` or
+    before a unit of :data:`_NAME_UNITS` (``imu_ax``, ``acc_x_mg``); (None, None) otherwise. The unit must be
+    one of that triad's."""
+    base = _NAME_PREFIX.sub("", normalize_name(key)[0], count=1)
+    hit = ALIASES.get(base)
+    if hit is not None:
+        return hit[0], None
+    for suffix, unit in _NAME_UNITS.items():
+        hit = ALIASES.get(base.removesuffix("_" + suffix)) if base.endswith("_" + suffix) else None
+        kind = next((k for k, comps in _COMPONENTS.items() if hit and hit[0] in comps), None)
+        if kind is not None and unit in _CANONICAL[kind]:
+            return hit[0], unit
+    return None, None
+
+
+def _candidate(table: Table, candidates: dict, std: str, key: str) -> None:
+    """Take column ``key`` for the standard name ``std``; a second column for it is an error naming both."""
+    if std in candidates:
+        raise OptinavError(
+            f"{table.path.name}: columns {candidates[std]!r} and {key!r} both look like {std!r}",
+            f"say which one with columns='{std}={candidates[std]}' (or skip one with '_')",
+        )
+    candidates[std] = key
+
+
 def _part_of(
     path, table: Table, mapping: dict, need: str | None, what: str, *, block: bool = False, negated=()
 ) -> _Part:
@@ -1624,21 +1668,29 @@ def _part_of(
     _one_frame(table)
     if not mapping:
         _long_log(table, ("acc", "gyro"))
+    loose = []  # columns named like a triad's axis only with a word before it or a unit after it
     for key in table.data:
         if key in mapped_sources or key in SKIP_NAMES or key in passed_over:
             continue
         hit = ALIASES.get(normalize_name(key)[0])
+        if hit is None:
+            loose.append(key)
         if hit is None or hit[0] in found or _local_clock(key) or _temperature(key):
             continue
-        std = hit[0]
-        if std in candidates:
-            raise OptinavError(
-                f"{table.path.name}: columns {candidates[std]!r} and {key!r} both look like {std!r}",
-                f"say which one with columns='{std}={candidates[std]}' (or skip one with '_')",
-            )
-        candidates[std] = key
+        _candidate(table, candidates, hit[0], key)
         if hit[1]:
             implied[key] = hit[1]
+    exact = set(found) | set(candidates)
+    for key in loose:
+        if _local_clock(key) or _temperature(key):
+            continue
+        std, unit = _loose_alias(key)
+        kind = next((k for k, comps in _COMPONENTS.items() if std in comps), None)
+        if kind is None or any(c in exact for c in (kind, *_COMPONENTS[kind])):
+            continue  # a triad named exactly elsewhere: a raw_ax beside ax is not it
+        _candidate(table, candidates, std, key)
+        if unit:
+            table.units.setdefault(key, unit)
     _kalibr_csv(table, found, candidates, implied)
     _px4(table, found, candidates, implied)
     if {"acce_x", "linacce_x"} <= {normalize_name(k)[0] for k in table.data}:
