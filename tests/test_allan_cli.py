@@ -1,6 +1,7 @@
 """`optinav simulate static` → `optinav allan` end to end: JSON result, report, Kalibr imu.yaml read back."""
 
 import json
+import math
 from pathlib import Path
 import re
 
@@ -664,3 +665,47 @@ def test_lost_samples_are_bridged_with_fill_gaps(tmp_path, capsys):
             np.testing.assert_allclose(res.sensor(s)["fit"].white, clean.sensor(s)["fit"].white, rtol=2e-3)
     rc, _, err = allan(many, "--fill-gaps")
     assert rc == 2 and "more than --fill-gaps bridges" in err
+
+
+def test_a_raw_static_log_gives_kalibr_noise_by_its_datasheet_sensitivity(tmp_path, capsys):
+    """A static log in raw counts (an InvenSense-style ±16 g / ±2000 °/s part: 2048 per g, 16.4 per deg/s) was
+    refused for --kalibr ("calibrate, then apply, then analyse"): with --acc-lsb/--gyro-lsb its counts are read in
+    SI, and Kalibr's noise keys come from one command. The densities are the SI log's, the gyro's with the
+    quantization of its 1/16.4 deg/s step added (σ = step/√12 per sample)."""
+    si, raw = tmp_path / "si.csv", tmp_path / "raw.csv"
+    argv = ["--quiet", "simulate", "static", "--out", str(si), "--hours", "0.1", "--seed", "1"]
+    assert main(argv) == 0
+    from optinav.io import read_imu
+
+    log = read_imu(si)
+    acc, gyr = np.round(log.acc / 9.80665 * 2048), np.round(np.degrees(log.gyr) * 16.4)
+    np.savetxt(raw, np.column_stack([log.t, acc, gyr]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="",
+               fmt=["%.6f"] + ["%d"] * 6)  # fmt: skip
+    assert main(["allan", str(raw), "--out", str(tmp_path / "x.json"), "--kalibr", str(tmp_path / "x.yaml")]) == 2
+    assert "--acc-lsb LSB_PER_G" in capsys.readouterr().err
+    keys = []
+    for data, extra in ((raw, ["--acc-lsb", "2048", "--gyro-lsb", "16.4"]), (si, [])):
+        out = tmp_path / f"{data.stem}.yaml"
+        assert main(["--quiet", "allan", str(data), *extra, "--out", str(tmp_path / f"{data.stem}.json"),
+                     "--kalibr", str(out)]) == 0  # fmt: skip
+        keys.append(yaml.safe_load(out.read_text()))
+    err = capsys.readouterr().err
+    assert "gyroscope counts read as rad/s by 16.4 per deg/s (a nominal sensitivity, no calibration)" in err
+    k_raw, k_si = keys
+    # the accelerometer's step (1/2048 g) is a tenth of its noise per sample: its density is the SI log's
+    assert k_raw["accelerometer_noise_density"] == pytest.approx(k_si["accelerometer_noise_density"], rel=0.02)
+    q = math.radians(1 / 16.4) / math.sqrt(12) * math.sqrt(0.01)  # the quantization's density at 100 Hz
+    want = math.hypot(k_si["gyroscope_noise_density"], q)
+    assert k_raw["gyroscope_noise_density"] == pytest.approx(want, rel=0.03)
+
+
+def test_a_sensitivity_is_for_counts_only(tmp_path):
+    """--acc-lsb beside a physical --acc-unit is refused in one line naming both flags."""
+    f = tmp_path / "a.csv"
+    np.savetxt(f, np.column_stack([np.arange(100) * 0.01, np.zeros((100, 2)), np.full(100, 1.0), np.zeros((100, 3))]),
+               delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="")  # fmt: skip
+    from optinav.errors import OptinavError
+    from optinav.io import read_imu
+
+    with pytest.raises(OptinavError, match=r"acc_lsb \(--acc-lsb\) reads an accelerometer in raw counts, not one in g"):
+        read_imu(f, acc_unit="g", acc_lsb=2048)

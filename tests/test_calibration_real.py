@@ -1074,3 +1074,29 @@ def test_raw_counts_for_attitude_are_named_counts_not_deg_s(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--gyro-unit deg/s" not in err and "(8877 in the file)" in err and "raw counts?" in err
     assert "accelerometer's median norm 2060 is not g either" in err and "optinav calibrate accel" in err
+
+
+def test_attitude_of_raw_counts_by_their_datasheet_sensitivity(tmp_path, capsys):
+    """The annotated session's raw counts for `optinav attitude` with --acc-lsb 2048 --gyro-lsb 16.4 (the
+    nominal sensitivities of its ±16 g / ±2000 °/s ranges): the attitude of the same samples converted to m/s^2 and
+    rad/s by those numbers beforehand, to the bit, with a note that no calibration was applied."""
+    raw = np.genfromtxt(DATA / "annotated_session.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    si = tmp_path / "si.csv"
+    acc = np.column_stack([raw[f"acc_{a}"] for a in "xyz"]).astype(float) * (9.80665 / 2048)
+    gyr = np.column_stack([raw[f"gyr_{a}"] for a in "xyz"]).astype(float) * (DEG / 16.4)
+    np.savetxt(si, np.column_stack([acc, gyr]), delimiter=",", header="ax,ay,az,gx,gy,gz", comments="", fmt="%.17g")
+    from optinav.io.readers import read_table
+
+    q = []
+    for data, extra in (
+        (DATA / "annotated_session.csv", ["--acc-lsb", "2048", "--gyro-lsb", "16.4"]),
+        (si, []),
+    ):
+        out = tmp_path / f"{len(extra)}.csv"
+        assert main(["attitude", str(data), "--rate", "204.8", *extra, "--out", str(out)]) == 0
+        tab = read_table(out)
+        q.append(np.column_stack([tab[k] for k in ("qw", "qx", "qy", "qz")]))
+    assert "accelerometer counts read as m/s^2 by 2048 per g (a nominal sensitivity, no calibration)" in (
+        capsys.readouterr().err
+    )
+    np.testing.assert_array_equal(q[0], q[1])

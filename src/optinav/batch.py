@@ -291,7 +291,7 @@ def _not_a_file(p: Path) -> str:
 
 
 #: option fields added after journals were written (attitude: a magnetometer file, a hard-iron offset to subtract)
-LATER_OPTIONS = ("mag_path", "mag_hard_iron")
+LATER_OPTIONS = ("mag_path", "mag_hard_iron", "acc_lsb", "gyro_lsb")
 
 
 def options_hash(job) -> str:

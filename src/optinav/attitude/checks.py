@@ -1353,7 +1353,7 @@ def check_norms(
             f"the gyro peaks at {np.degrees(peak):.3g} deg/s as declared in {gyro_unit or 'rad/s'} ({declared:.4g} "
             f"in the file), beyond any gyro's range: the data are in a finer unit (mdps? raw counts?){acc}",
             "pass --gyro-unit mdps for millidegrees per second; raw counts need their calibration first "
-            "(optinav calibrate accel, then optinav apply)",
+            "(optinav calibrate accel, then optinav apply), or their datasheet sensitivity (--gyro-lsb, --acc-lsb)",
         )
 
 

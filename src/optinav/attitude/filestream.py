@@ -526,9 +526,9 @@ class _Blocks:
                     "t,ax,ay,az,gx,gy,gz",
                 )
             if log.acc_unit == "counts" or log.gyro_unit == "counts":
-                raise OptinavError(
-                    "the log is in raw counts", "calibrate first (optinav apply) or give --acc-unit/--gyro-unit"
-                )
+                from optinav.attitude.unit import RAW_COUNTS
+
+                raise OptinavError(*RAW_COUNTS)
             self.gyro_unit = log.gyro_input_unit or log.gyro_unit
             row0 = chunks.rows - len(log)
             t = log.t

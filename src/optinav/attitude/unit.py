@@ -18,6 +18,14 @@ if TYPE_CHECKING:
     from optinav.attitude.filestream import StreamedEstimate
 
 
+#: the error of a log in raw counts without a sensitivity to read them by
+RAW_COUNTS = (
+    "the log is in raw counts",
+    "calibrate first (optinav apply), give --acc-unit/--gyro-unit, or read the counts by their datasheet "
+    "sensitivity with --acc-lsb/--gyro-lsb",
+)
+
+
 @dataclasses.dataclass
 class AttitudeOptions:
     """The options of ``optinav attitude`` that a folder of recordings shares: ``method`` (None: iframe),
@@ -28,7 +36,8 @@ class AttitudeOptions:
     implied by ``skip_bad_lines``, whose unreadable lines are such rows), ``options`` (estimator options, SI), and
     the
     reading options of :func:`optinav.io.read_imu` (``columns``, units, ``time_unit``, ``rate_hz`` Hz, ``delimiter``,
-    ``datasets``, ``gyro_path`` and ``gyro_columns``: the gyroscope in a second file, ``skip_bad_lines``);
+    ``datasets``, ``gyro_path`` and ``gyro_columns``: the gyroscope in a second file, ``skip_bad_lines``,
+    ``acc_lsb``/``gyro_lsb``: counts per g / per deg/s of a log in raw counts);
     ``mag_path``: the magnetometer in a file of its own, on its own time stamps (:func:`separate_mag`; its columns
     ``mag_columns``)."""
 
@@ -54,6 +63,8 @@ class AttitudeOptions:
     gyro_columns: str | None = None
     skip_bad_lines: bool = False
     mag_path: str | None = None
+    acc_lsb: float | None = None
+    gyro_lsb: float | None = None
 
     def __post_init__(self):
         # one spelling, so that "NED" from the CLI and "ned" from Python are the same batch job (options hash)
@@ -149,7 +160,7 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
             f"{path} needs accelerometer and gyroscope columns", "name them with --columns t,ax,ay,az,gx,gy,gz"
         )
     if log.acc_unit == "counts" or log.gyro_unit == "counts":
-        raise OptinavError("the log is in raw counts", "calibrate first (optinav apply) or give --acc-unit/--gyro-unit")
+        raise OptinavError(*RAW_COUNTS)
     ok = log.finite
     if not np.all(ok) and not o.drops_nan:
         raise OptinavError(*nan_rows_error(path, int(np.count_nonzero(~ok))))

@@ -8,6 +8,7 @@ import textwrap
 from optinav.cli.common import (
     add_chunk_option,
     add_gyro_file_options,
+    add_counts_options,
     add_input_options,
     ReaderNotes,
     add_report_option,
@@ -69,6 +70,7 @@ def register(sub) -> None:
         help="the IMU topic written into --kalibr (default: a bag's Imu topic, else /imu0)",
     )
     add_input_options(p)
+    add_counts_options(p)
     add_gyro_file_options(p, "each triad analysed on its own clock and rate (not interpolated)")
     p.add_argument(
         "--fill-gaps",

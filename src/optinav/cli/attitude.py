@@ -18,6 +18,7 @@ from optinav.cli.common import (
     SEED,
     add_chunk_option,
     add_gyro_file_options,
+    add_counts_options,
     add_input_options,
     add_report_option,
     check_disk,
@@ -82,6 +83,7 @@ def register(sub) -> None:
     )
     p.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet, a ROS bag or a PX4 ULog (--topic)")
     add_input_options(p)
+    add_counts_options(p)
     add_gyro_file_options(p)
     p.add_argument("--method", choices=METHOD_NAMES, help="estimator (default iframe; mekf with --pol-columns alone)")
     p.add_argument(
@@ -243,6 +245,7 @@ def add_batch_options(p) -> None:
     """``optinav batch attitude``: the options of ``optinav attitude`` a folder shares (registry hook;
     destinations are the fields of :class:`optinav.attitude.unit.AttitudeOptions`)."""
     add_input_options(p)
+    add_counts_options(p)
     p.add_argument("--method", choices=METHOD_NAMES, help="estimator (default iframe)")
     p.add_argument("--offline", action="store_true", help="iframe: use the whole recording (forward-backward)")
     p.add_argument(

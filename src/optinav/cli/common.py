@@ -132,6 +132,23 @@ def check_disk(n_rows: float, bytes_per_row: float, path, what: str, remedy: str
         )
 
 
+def add_counts_options(p) -> None:
+    """--acc-lsb, --gyro-lsb: raw counts read as SI by their datasheet sensitivity (commands that need SI units)."""
+    p.add_argument(
+        "--acc-lsb",
+        type=POSITIVE,
+        metavar="LSB_PER_G",
+        help="an accelerometer in raw counts read as m/s^2 by its datasheet sensitivity (e.g. 2048 at ±16 g): a "
+        "nominal conversion, no calibration",
+    )
+    p.add_argument(
+        "--gyro-lsb",
+        type=POSITIVE,
+        metavar="LSB_PER_DEG_S",
+        help="a gyroscope in raw counts read as rad/s by its datasheet sensitivity (e.g. 16.4 at ±2000 °/s)",
+    )
+
+
 def add_input_options(p, *, gyro: bool = True, unit_default: tuple[str, str] = ("m/s^2", "rad/s")) -> None:
     """--columns, --acc-unit, --gyro-unit, --time-unit, --rate, --delimiter, --datasets, --topic, --skip-bad-lines;
     ``unit_default``

@@ -1461,7 +1461,8 @@ class _AtRest:
                 ),
                 "declare the unit with --acc-unit "
                 + (
-                    "counts (then calibrate and apply for SI noise)" + (f", or --acc-unit {unit}" if unit else "")
+                    "counts (then calibrate and apply for SI noise), --acc-lsb LSB_PER_G (SI by its datasheet "
+                    "sensitivity)" + (f", or --acc-unit {unit}" if unit else "")
                     if counts
                     else unit or "(g, mg, m/s^2, counts)"
                 ),
@@ -1506,6 +1507,13 @@ class _GyroAtRest:
         if rate > GYRO_REST_MAX or dens > GYRO_N_MAX:
             # the finer units that make both plausible: mdps declared deg/s was told "deg/s read as rad/s", the unit
             # already given
+            if self.declared == "counts":
+                raise OptinavError(
+                    f"the gyro reads {rate:.3g} rad/s at rest with a noise density of {dens:.3g} rad/s/√Hz as read "
+                    f"by its sensitivity, beyond any MEMS gyro (at most {GYRO_REST_MAX:.2g} rad/s at rest, "
+                    f"{GYRO_N_MAX:.2g} rad/s/√Hz)",
+                    "check --gyro-lsb (counts per deg/s, from the datasheet at the range the logger set)",
+                )
             k = factor(self.declared)
             finer = [
                 u
@@ -1526,7 +1534,12 @@ class _GyroAtRest:
                 f"{self.declared}, beyond any MEMS gyro (at most {GYRO_REST_MAX:.2g} rad/s at rest, "
                 f"{GYRO_N_MAX:.2g} rad/s/√Hz): it {looks}",
                 "declare the unit with "
-                + (f"--gyro-unit counts (then calibrate and apply for SI noise), or {other}" if self.whole else other),
+                + (
+                    "--gyro-unit counts (then calibrate and apply for SI noise), --gyro-lsb LSB_PER_DEG_S (SI by its "
+                    f"datasheet sensitivity), or {other}"
+                    if self.whole
+                    else other
+                ),
             )
 
 
@@ -1767,7 +1780,12 @@ def analyse_blocks(
                     raise OptinavError(
                         "--kalibr: Kalibr needs both triads in SI units, and the log has "
                         + (f"no {missing[0]} selected" if missing else f"the {counts[0]} in raw counts"),
-                        "calibrate the unit and analyse the output of optinav apply (m/s^2, rad/s), with --sensor both",
+                        "calibrate the unit and analyse the output of optinav apply (m/s^2, rad/s), with --sensor both"
+                        + (
+                            "; or read the counts by their datasheet sensitivity (--acc-lsb, --gyro-lsb)"
+                            if counts
+                            else ""
+                        ),
                     )
             for name in wanted:
                 if present[name][0] is not None:
@@ -1805,7 +1823,7 @@ def analyse_blocks(
         if log.acc is not None and len(log.acc) and np.all(np.isfinite(log.acc)):
             at_rest.add(log.acc, counts=log.acc_unit == "counts")  # the gyro's analysis too needs the log at rest
         if "gyroscope" in angles and log.gyro_unit == "rad/s":
-            gyro_rest.declared = log.gyro_input_unit or "rad/s"
+            gyro_rest.declared = log.gyro_input_unit or "rad/s"  # "counts": read by a sensitivity (--gyro-lsb)
             gyro_rest.add(log.gyr)
     if not angles:
         raise OptinavError(f"{source or 'the log'} holds no samples", "pass a static log")

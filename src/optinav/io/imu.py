@@ -2046,6 +2046,8 @@ READ_OPTIONS = (
     "gyro_path",
     "gyro_columns",
     "skip_bad_lines",
+    "acc_lsb",
+    "gyro_lsb",
 )
 
 
@@ -2074,6 +2076,8 @@ def read_imu(
     topic=None,
     unit_defaults: tuple[str, str] | None = None,
     skip_bad_lines: bool = False,
+    acc_lsb: float | None = None,
+    gyro_lsb: float | None = None,
 ) -> ImuLog:
     """Read accelerometer and/or gyroscope samples into an :class:`ImuLog`.
 
@@ -2121,6 +2125,10 @@ def read_imu(
         corrupted line) instead of refusing the file, with a note naming them; at most 1 % of its lines. With a
         time column the rows are gone (the times keep the timing); without one they are NaN rows (lost samples)
         where they stood, so that the rate still times the rows after them.
+    acc_lsb, gyro_lsb : float or None
+        Datasheet sensitivities of a log in raw counts [counts per g, counts per deg/s]: its counts are read as
+        m/s^2 and rad/s by them (a driver's nominal conversion, no calibration; a note says so). Either implies that
+        triad's unit is counts.
 
     Returns
     -------
@@ -2140,7 +2148,9 @@ def read_imu(
         if gyro_path is not None:
             raise OptinavError(f"--topic {topic} reads the gyroscope of {Path(path).name}", "drop gyro_path (--gyro)")
         path, gyro_path = pair
-    opts = _imu_options(acc_unit, gyro_unit, time_unit, rate_hz, gyro_path, gyro_columns, unit_defaults)
+    opts = _imu_options(
+        acc_unit, gyro_unit, time_unit, rate_hz, gyro_path, gyro_columns, unit_defaults, acc_lsb, gyro_lsb
+    )
     need = "acc" if gyro_path is not None else None
     main = _read_part(path, columns, datasets, delimiter, need, "columns", topic, skip_bad_lines)
     parts = [main]
@@ -2198,7 +2208,7 @@ def sensor_logs(path, **kw) -> tuple[ImuLog, ImuLog] | None:
         return None
     opts = _imu_options(
         kw.get("acc_unit"), kw.get("gyro_unit"), kw.get("time_unit"), kw.get("rate_hz"), None, None,
-        kw.get("unit_defaults"),
+        kw.get("unit_defaults"), kw.get("acc_lsb"), kw.get("gyro_lsb"),
     )  # fmt: skip
     if pair is not None or export is not None:  # two files or topics, each sensor on its own clock
         if pair is not None:  # a ULog's raw accelerometer and gyroscope topics, read by their fields' names
@@ -2235,9 +2245,28 @@ MULTI_RECORD_BESIDE = (
 )
 
 
-def _imu_options(acc_unit, gyro_unit, time_unit, rate, gyro_path, gyro_columns, unit_defaults=None):
+def _scaled(x, k: float):
+    """``x`` times ``k``; ``x`` itself for 1 (no copy of a long log)."""
+    return x if k == 1.0 else x * k
+
+
+def _imu_options(
+    acc_unit, gyro_unit, time_unit, rate, gyro_path, gyro_columns, unit_defaults=None, acc_lsb=None, gyro_lsb=None
+):
     acc_u = None if acc_unit is None else _canonical("acc", acc_unit, "acc_unit")
     gyro_u = None if gyro_unit is None else _canonical("gyro", gyro_unit, "gyro_unit")
+    for lsb, name, unit, kind in ((acc_lsb, "acc_lsb", acc_u, "acc"), (gyro_lsb, "gyro_lsb", gyro_u, "gyro")):
+        if lsb is None:
+            continue
+        check_positive(lsb, name)
+        if unit not in (None, "counts"):
+            raise OptinavError(
+                f"{name} (--{name.replace('_', '-')}) reads {'an accelerometer' if kind == 'acc' else 'a gyroscope'} "
+                f"in raw counts, not one in {unit}",
+                f"drop {name} or {kind}_unit (--{kind}-unit)",
+            )
+    acc_u = "counts" if acc_lsb is not None else acc_u  # a sensitivity is given for counts
+    gyro_u = "counts" if gyro_lsb is not None else gyro_u
     time_u = None if time_unit is None else _canonical("time", time_unit, "time_unit")
     if rate is not None:
         rate = check_positive(rate, "rate_hz")
@@ -2246,7 +2275,7 @@ def _imu_options(acc_unit, gyro_unit, time_unit, rate, gyro_path, gyro_columns, 
     acc_d, gyro_d = ("m/s^2", "rad/s") if unit_defaults is None else unit_defaults
     acc_d = _canonical("acc", acc_d or "m/s^2", "acc_unit")
     gyro_d = _canonical("gyro", gyro_d or "rad/s", "gyro_unit")
-    return acc_u, gyro_u, time_u, rate, acc_d, gyro_d
+    return acc_u, gyro_u, time_u, rate, acc_d, gyro_d, acc_lsb, gyro_lsb
 
 
 def _log_of(
@@ -2257,13 +2286,16 @@ def _log_of(
     rate,
     acc_d: str = "m/s^2",
     gyro_d: str = "rad/s",
+    acc_lsb: float | None = None,
+    gyro_lsb: float | None = None,
     *,
     row0: int = 0,
     prev_t: float | None = None,
     block: bool = False,
 ) -> ImuLog:
     """The :class:`ImuLog` of the parts read (main file, optional gyro file). A block of a streamed file
-    (``block``) starts at row ``row0`` after the time ``prev_t`` (s) of the previous block's last row."""
+    (``block``) starts at row ``row0`` after the time ``prev_t`` (s) of the previous block's last row. Counts with a
+    datasheet sensitivity ``acc_lsb`` (per g) / ``gyro_lsb`` (per deg/s) are read as m/s² / rad/s."""
     notes: list[str] = []
     main = parts[0]
     given, rate = rate, _stf_rate(main, rate)
@@ -2365,19 +2397,32 @@ def _log_of(
     if main.acc is not None:
         acc_in = _resolve_unit("acc", acc_u, main, "acc_unit", acc_d)
         acc = to_si(main.acc, acc_in) if acc_in in ("g", "mg") else main.acc
+        if acc_in == "counts" and acc_lsb:
+            acc = main.acc * (G_STANDARD / acc_lsb)
+        if acc_in == "counts" and acc_lsb and row0 == 0:
+            notes.append(
+                f"accelerometer counts read as m/s^2 by {acc_lsb:g} per g (a nominal sensitivity, no calibration)"
+            )
+    per_count = 1.0  # the gyro's rad/s per count of a nominal sensitivity
     if main.gyro is not None:
         gpart = parts[-1]
         gyro_in = _resolve_unit("gyro", gyro_u, gpart if len(parts) == 2 else main, "gyro_unit", gyro_d)
-        gyro = to_si(main.gyro, gyro_in) if gyro_in in ("deg/s", "mdps") else main.gyro
+        if gyro_in == "counts" and gyro_lsb:
+            per_count = factor("deg/s") / gyro_lsb
+        if gyro_in == "counts" and gyro_lsb and row0 == 0:
+            notes.append(
+                f"gyroscope counts read as rad/s by {gyro_lsb:g} per deg/s (a nominal sensitivity, no calibration)"
+            )
+        gyro = to_si(main.gyro, gyro_in) if gyro_in in ("deg/s", "mdps") else _scaled(main.gyro, per_count)
         if main.gyro_clock is not None:
             tg, own = main.gyro_clock
-            main.gyro_clock = (tg, to_si(own, gyro_in) if gyro_in in ("deg/s", "mdps") else own)
+            main.gyro_clock = (tg, to_si(own, gyro_in) if gyro_in in ("deg/s", "mdps") else _scaled(own, per_count))
     log = ImuLog(
         t=t,
         acc=acc,
         gyr=gyro,
-        acc_unit="counts" if acc_in == "counts" else "m/s^2",
-        gyro_unit="counts" if gyro_in == "counts" else "rad/s",
+        acc_unit="counts" if acc_in == "counts" and not acc_lsb else "m/s^2",
+        gyro_unit="counts" if gyro_in == "counts" and not gyro_lsb else "rad/s",
         source=" + ".join(dict.fromkeys(str(p.path) for p in parts)),
         n_rows_read=main.n,
         labels=main.labels,
@@ -2625,6 +2670,8 @@ def iter_imu(
     topic=None,
     unit_defaults: tuple[str, str] | None = None,
     skip_bad_lines: bool = False,
+    acc_lsb: float | None = None,
+    gyro_lsb: float | None = None,
 ) -> "ImuChunks":
     """:func:`read_imu` in blocks of at most ``chunk_rows`` samples.
 
@@ -2637,6 +2684,7 @@ def iter_imu(
     Parameters
     ----------
     path, columns, gyro_path, gyro_columns, acc_unit, gyro_unit, time_unit, datasets, delimiter, topic, unit_defaults
+    acc_lsb, gyro_lsb
         As :func:`read_imu`.
     skip_bad_lines : bool
         As :func:`read_imu`; each block notes its own lines left out.
@@ -2665,6 +2713,8 @@ def iter_imu(
         topic=topic,
         unit_defaults=unit_defaults,
         skip_bad_lines=skip_bad_lines,
+        acc_lsb=acc_lsb,
+        gyro_lsb=gyro_lsb,
     )
 
 
@@ -2691,6 +2741,8 @@ class ImuChunks:
             kw["gyro_path"],
             kw["gyro_columns"],
             kw.get("unit_defaults"),
+            kw.get("acc_lsb"),
+            kw.get("gyro_lsb"),
         )
         _, self.mapping, self.negated, tkw = _part_spec(
             kw["columns"], kw["datasets"], "columns", kw.get("topic"), kw.get("skip_bad_lines", False)
