@@ -144,3 +144,16 @@ def test_a_device_name_column_beside_the_triads_is_left_out_as_before(tmp_path):
     log = read_imu(path, gyro_unit="deg/s")
     np.testing.assert_array_equal(log.acc, acc[:500])
     assert any("column(s) 'sensor' hold text and were left out" in n for n in log.notes)
+
+
+def test_a_type_column_beside_named_triads_is_no_long_log(tmp_path):
+    """A numeric 'type' column (a packet type, 1 on every row, as Android's accelerometer number) beside x, y, z
+    positions and named triads: the triads are read as named, x, y, z left alone."""
+    t, acc, gyr = _session()
+    path = tmp_path / "p.csv"
+    pos = np.arange(1500.0)[:, None] * [1.0, 2.0, 3.0]
+    np.savetxt(path, np.column_stack([t[:1500], np.ones(1500), pos, acc[:1500], gyr[:1500]]), delimiter=",",
+               header="t,type,x,y,z,ax,ay,az,gx,gy,gz", comments="", fmt="%.17g")  # fmt: skip
+    log = read_imu(path, gyro_unit="deg/s")
+    np.testing.assert_array_equal(log.acc, acc[:1500])
+    assert not any("one row per sensor sample" in n for n in log.notes)

@@ -845,12 +845,15 @@ def _long_rows(table: Table, keep: tuple[str, ...]) -> bool:
     norm = table.normal_names()
     col = next((norm[k] for k in SENSOR_COLUMNS if k in norm), None)
     axes = next((tuple(norm[a] for a in names) for names in _LONG_AXES if all(a in norm for a in names)), None)
-    if col is None or axes is None:
-        return False
+    imu = ("ax", "ay", "az", "acc", "gx", "gy", "gz", "gyro")
+    if col is None or axes is None or any(ALIASES.get(k, ("",))[0] in imu for k in norm):
+        return False  # columns named for a triad are read as such (x, y, z beside them: a position, say)
     labels = np.asarray(table.data[col])
     if labels.ndim != 1:
         return False
     values = np.unique(labels)
+    if values.size < 2:
+        return False  # one value on every row names no sensor per row (a packet type)
     kinds = {v: _sensor_kind(v) for v in values.tolist()}
     if not any(k is not None and k.split()[0] in ("acc", "gyro") for k in kinds.values()):
         return False
