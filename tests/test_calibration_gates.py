@@ -242,7 +242,7 @@ def test_imucal_annotated_sections_take_ferraris_by_default_and_lm_names_the_cut
         "360",
     ]
     assert main([*argv, "--out", str(tmp_path / "auto.json")]) == 0
-    assert "(ferraris for the label column's nine sections)" in capsys.readouterr().err
+    assert "(ferraris: the log is cut to the nine sections its labels name)" in capsys.readouterr().err
     assert main([*argv, "--method", "ferraris", "--out", str(tmp_path / "named.json")]) == 0
     auto, named = (CalibrationResult.from_json(tmp_path / f) for f in ("auto.json", "named.json"))
     assert auto.method == named.method == "ferraris"

@@ -1100,3 +1100,25 @@ def test_attitude_of_raw_counts_by_their_datasheet_sensitivity(tmp_path, capsys)
         capsys.readouterr().err
     )
     np.testing.assert_array_equal(q[0], q[1])
+
+
+def test_a_continuous_session_with_its_sections_labelled_keeps_the_default_lm(tmp_path, capsys):
+    """imucal's continuous session with its nine sections written into a label column (from its section list; the
+    rows between them unlabelled): the turns between the poses are in the file, so the default stays lm (only a log
+    cut to the sections takes ferraris); --method ferraris reads the sections from the labels as from the list."""
+    raw = (DATA / "example_ferraris_session.csv").read_text().splitlines()
+    sections = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    label = [""] * (len(raw) - 1)
+    for name, rng in sections.items():
+        a, b = (rng["start"], rng["end"]) if isinstance(rng, dict) else rng
+        label[int(a) : int(b)] = [name] * (int(b) - int(a))
+    path = tmp_path / "labelled.csv"
+    path.write_text("\n".join([raw[0] + ",part", *(f"{r},{lab}" for r, lab in zip(raw[1:], label))]) + "\n")
+    args = [a if a != str(DATA / "example_ferraris_session.csv") else str(path) for a in EXAMPLE]
+    assert _run(tmp_path, args).method == "lm"
+    named = _run(tmp_path, [*args, "--method", "ferraris"])
+    listed = _run(
+        tmp_path, [*EXAMPLE, "--method", "ferraris", "--sections", str(DATA / "example_ferraris_session_list.json")]
+    )
+    np.testing.assert_array_equal(named.accelerometer["K"], listed.accelerometer["K"])
+    np.testing.assert_array_equal(named.gyroscope["K"], listed.gyroscope["K"])

@@ -133,7 +133,7 @@ def add_calibration_options(a) -> None:
     a.add_argument(
         "--method",
         choices=METHOD_NAMES,
-        help="estimator (default lm; ferraris for a log whose label column names imucal's nine sections x_p … z_rot)",
+        help="estimator (default lm; ferraris for a log cut to imucal's nine sections x_p … z_rot, every row labelled)",
     )
     a.add_argument(
         "--model",
@@ -328,7 +328,11 @@ def run_accel(args) -> int:
 def _say_calibrating(args, n: int, method: str) -> None:
     """The console line before the fit: how many samples, which method (and why, when the data chose it)."""
     if not getattr(args, "quiet", False):
-        why = " for the label column's nine sections" if args.method is None and method == "ferraris" else ""
+        why = (
+            ": the log is cut to the nine sections its labels name"
+            if args.method is None and method == "ferraris"
+            else ""
+        )
         print(f"optinav: calibrating {n} samples from {args.data} ({method}{why}) ...", file=sys.stderr)
 
 

@@ -2546,9 +2546,9 @@ class _Gather:
 
 def resolve_method(options: FileOptions, data: SessionData) -> FileOptions:
     """``options`` with the method chosen when it is None: 'ferraris' for a log with a gyroscope, without
-    ``sections``, whose label column names imucal's nine sections ``x_p … z_rot`` (its annotated sessions: cut to
-    the sections, they have no turns between the poses for the norm fit's gyro), else 'lm'; checked for options
-    the chosen route does not use."""
+    ``sections``, cut to imucal's nine sections (every row labelled ``x_p … z_rot``, all nine there: its annotated
+    sessions, which have no turns between the poses for the norm fit's gyro), else 'lm' (a continuous log with
+    the sections labelled keeps its turns); checked for options the chosen route does not use."""
     if options.method is not None:
         return options
     from .ferraris import labels_name_sections

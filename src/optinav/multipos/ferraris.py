@@ -679,11 +679,11 @@ def section_name(name) -> str:
 
 
 def labels_name_sections(labels) -> bool:
-    """Whether a per-sample label column names all nine sections ``x_p … z_rot`` (in imucal's spelling, or in
-    capitals or with blanks around it)."""
+    """Whether a per-sample label column labels every row with one of the nine sections ``x_p … z_rot``, all of
+    them present (in imucal's spelling, or in capitals or with blanks around it): a log cut to its sections."""
     if labels is None:
         return False
-    return set(SECTIONS) <= {section_name(u) for u in np.unique(np.asarray(labels).astype(str))}
+    return set(SECTIONS) == {section_name(u) for u in np.unique(np.asarray(labels).astype(str))}
 
 
 def sections_from_labels(labels) -> dict | None:
