@@ -1122,3 +1122,29 @@ def test_a_continuous_session_with_its_sections_labelled_keeps_the_default_lm(tm
     )
     np.testing.assert_array_equal(named.accelerometer["K"], listed.accelerometer["K"])
     np.testing.assert_array_equal(named.gyroscope["K"], listed.gyroscope["K"])
+
+
+def test_attitude_of_raw_counts_by_a_wrong_sensitivity_names_it(tmp_path, capsys):
+    """A gyro sensitivity 100× too small (0.164 for the annotated session's 16.4: its peak beyond any gyro) ended
+    in "unknown unit 'counts'"; given per rad/s (940 for 16.4 per deg/s) on a BROAD trial written in counts (gravity
+    turns in the body: the turns 57× short of gravity's) it named --gyro-unit. Both errors name --gyro-lsb. (On the
+    annotated session the turns are about the vertical, which the accelerometer does not see: no check can tell.)"""
+    argv = ["--quiet", "attitude", str(DATA / "annotated_session.csv"), "--rate", "204.8", "--acc-lsb", "2048"]
+    assert main([*argv, "--gyro-lsb", "0.164", "--out", str(tmp_path / "a.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "check --gyro-lsb: counts per deg/s" in err and "unknown unit" not in err, err
+    broad = DATA.parent / "attitude" / "broad" / "02_undisturbed_slow_rotation_B.hdf5"
+    if not broad.is_file():
+        pytest.skip("BROAD data absent")
+    from optinav.attitude.data import load_broad
+
+    tr, n = load_broad(broad), 20000
+    raw = tmp_path / "b02.csv"
+    np.savetxt(raw, np.column_stack([np.arange(n) * tr.dt, np.round(tr.acc[:n] / 9.80665 * 2048),
+                                     np.round(np.degrees(tr.gyr[:n]) * 16.4)]),
+               delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="", fmt=["%.6f"] + ["%d"] * 6)  # fmt: skip
+    argv = ["--quiet", "attitude", str(raw), "--frame", "ENU", "--acc-lsb", "2048", "--out", str(tmp_path / "b.csv")]
+    assert main([*argv, "--gyro-lsb", "940"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the gyro turns gravity ×0.0" in err and "check --gyro-lsb" in err, err
+    assert main([*argv, "--gyro-lsb", "16.4"]) == 0

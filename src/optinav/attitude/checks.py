@@ -1339,6 +1339,11 @@ def check_norms(
         gravity = share * G_STANDARD
         if gravity > 3 * G_STANDARD:
             raise _acc_unit_error(med_a, gravity, "where the gyro is still")
+    if peak > GYRO_MAX_RAD_S and gyro_unit == "counts":  # read by a datasheet sensitivity
+        raise OptinavError(
+            f"the gyro peaks at {np.degrees(peak):.3g} deg/s as read by its sensitivity, beyond any gyro's range",
+            LSB_REMEDY,
+        )
     if peak > GYRO_MAX_RAD_S:
         declared = peak / factor(gyro_unit or "rad/s")  # the number in the file
         if gyro_unit in (None, "rad/s") and declared * factor("deg/s") <= GYRO_MAX_RAD_S:
@@ -1357,10 +1362,21 @@ def check_norms(
         )
 
 
+#: the remedy of a gyro in counts whose datasheet sensitivity (--gyro-lsb) contradicts the data
+LSB_REMEDY = "check --gyro-lsb: counts per deg/s, from the datasheet at the range the logger set"
+
+
 def unit_error(hint: UnitHint, gyro_unit: str | None = None) -> OptinavError:
     """The error of a hint of :func:`gyro_unit_hint` for a gyro declared in ``gyro_unit`` (converted to rad/s
-    before the check; None: not known): names the flag that fixes what was found, never the unit the user already
-    gave."""
+    before the check; None: not known; "counts": read by a datasheet sensitivity): names the flag that fixes what
+    was found, never the unit the user already gave."""
+    if gyro_unit == "counts" and hint.kind != "axes":
+        seen = hint.words or f"the gyro turns gravity ×{1.0 / hint.scale:.3g} as far as the accelerometer sees it turn"
+        return OptinavError(
+            f"{seen}: the gyro read by its sensitivity does not turn as gravity turns in the body; the time column, "
+            "the sample rate or the sensitivity is off by that factor",
+            f"{LSB_REMEDY}; or --rate, --time-unit",
+        )
     if hint.kind == "time":
         return OptinavError(
             f"{hint.words}: the time column, the sample rate or the gyro's unit is off by that factor",

@@ -1505,15 +1505,15 @@ class _GyroAtRest:
         # white noise of per-sample std σ: first differences have variance 2σ² per axis; N = σ·√dt
         dens = float(np.sqrt(self.d2 / (2.0 * 3.0 * self.nd) * dt))
         if rate > GYRO_REST_MAX or dens > GYRO_N_MAX:
-            # the finer units that make both plausible: mdps declared deg/s was told "deg/s read as rad/s", the unit
-            # already given
-            if self.declared == "counts":
+            if self.declared == "counts":  # read by a datasheet sensitivity (--gyro-lsb)
                 raise OptinavError(
                     f"the gyro reads {rate:.3g} rad/s at rest with a noise density of {dens:.3g} rad/s/√Hz as read "
                     f"by its sensitivity, beyond any MEMS gyro (at most {GYRO_REST_MAX:.2g} rad/s at rest, "
                     f"{GYRO_N_MAX:.2g} rad/s/√Hz)",
                     "check --gyro-lsb (counts per deg/s, from the datasheet at the range the logger set)",
                 )
+            # the finer units that make both plausible: mdps declared deg/s was told "deg/s read as rad/s", the unit
+            # already given
             k = factor(self.declared)
             finer = [
                 u
