@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 
 from optinav.core.results import Result, nested_kwargs, register_legacy
-from optinav.core.units import G_STANDARD, factor, from_si, to_si
+from optinav.core.units import G_STANDARD, factor, from_si
 from optinav.core.validate import check_positive, check_timestamps
 from optinav.errors import OptinavError
 from optinav.io.phone import ExportMember, phone_export, refuse_as_one_sensor
@@ -2253,6 +2253,14 @@ def _scaled(x, k: float):
     return x if k == 1.0 else x * k
 
 
+def _si_factor(unit: str, lsb: float | None, per: str) -> float:
+    """What a triad read in ``unit`` is multiplied by to be kept: SI for a physical unit, counts as they are, or
+    by their sensitivity ``lsb`` (counts per ``per``: "g", "deg/s") into SI."""
+    if unit == "counts":
+        return factor(per) / lsb if lsb else 1.0
+    return factor(unit)
+
+
 def _imu_options(
     acc_unit, gyro_unit, time_unit, rate, gyro_path, gyro_columns, unit_defaults=None, acc_lsb=None, gyro_lsb=None
 ):
@@ -2399,27 +2407,23 @@ def _log_of(
     acc_in = gyro_in = None
     if main.acc is not None:
         acc_in = _resolve_unit("acc", acc_u, main, "acc_unit", acc_d)
-        acc = to_si(main.acc, acc_in) if acc_in in ("g", "mg") else main.acc
-        if acc_in == "counts" and acc_lsb:
-            acc = main.acc * (G_STANDARD / acc_lsb)
+        acc = _scaled(main.acc, _si_factor(acc_in, acc_lsb, "g"))
         if acc_in == "counts" and acc_lsb and row0 == 0:
             notes.append(
                 f"accelerometer counts read as m/s^2 by {acc_lsb:g} per g (a nominal sensitivity, no calibration)"
             )
-    per_count = 1.0  # the gyro's rad/s per count of a nominal sensitivity
     if main.gyro is not None:
         gpart = parts[-1]
         gyro_in = _resolve_unit("gyro", gyro_u, gpart if len(parts) == 2 else main, "gyro_unit", gyro_d)
-        if gyro_in == "counts" and gyro_lsb:
-            per_count = factor("deg/s") / gyro_lsb
+        k = _si_factor(gyro_in, gyro_lsb, "deg/s")
         if gyro_in == "counts" and gyro_lsb and row0 == 0:
             notes.append(
                 f"gyroscope counts read as rad/s by {gyro_lsb:g} per deg/s (a nominal sensitivity, no calibration)"
             )
-        gyro = to_si(main.gyro, gyro_in) if gyro_in in ("deg/s", "mdps") else _scaled(main.gyro, per_count)
+        gyro = _scaled(main.gyro, k)
         if main.gyro_clock is not None:
             tg, own = main.gyro_clock
-            main.gyro_clock = (tg, to_si(own, gyro_in) if gyro_in in ("deg/s", "mdps") else _scaled(own, per_count))
+            main.gyro_clock = (tg, _scaled(own, k))
     log = ImuLog(
         t=t,
         acc=acc,
