@@ -60,9 +60,8 @@ def test_binary_under_the_wrong_suffix_is_read_by_its_content(tmp_path):
     "head, what",
     [
         (b"SQLite format 3\x00", "SQLite database"),
-        (b"#ROSBAG V2.0\n", "ROS 1 bag"),
+        (b"#ROSBAG V1.2\n", "ROS 1 bag of another format than 2.0"),
         (b"\x89PNG\r\n\x1a\n", "PNG image"),
-        (b"\x89MCAP0\r\n", "MCAP"),
         (b"%PDF-1.7\n", "PDF"),
     ],
 )
@@ -72,6 +71,16 @@ def test_foreign_binary_is_named_in_one_line(tmp_path, head, what, suffix):
     with pytest.raises(OptinavError, match=f"x{suffix}: the file is an? .*{what}") as err:
         read_imu(path)
     assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("head", [b"#ROSBAG V2.0\n", b"\x89MCAP0\r\n"])
+def test_a_bag_under_another_suffix_is_read_as_a_bag(tmp_path, head):
+    # ROS 1 bags and MCAP files are inputs whatever their suffix (a recording left as X.bag.active)
+    path = _w(tmp_path / "x.csv", head + bytes(range(256)) * 4)
+    with pytest.raises(
+        OptinavError, match=r"x\.csv is not a readable ROS bag: it (ends within its header|holds no co)"
+    ):
+        read_imu(path)
 
 
 def test_parquet_under_another_suffix_is_read_as_parquet(tmp_path):

@@ -958,8 +958,10 @@ _MAGIC = (
 #: signatures of formats optinav does not read, named in the error (checked after :data:`_MAGIC`)
 _FOREIGN = (
     (b"SQLite format 3\x00", "an SQLite database (a ROS 2 bag is read as .db3)"),
-    (b"#ROSBAG", "a ROS 1 bag (read as .bag)"),
-    (b"\x89MCAP", "an MCAP log (a ROS 2 bag is read as .mcap)"),
+    # a ROS 1 bag of format 2.0 and an MCAP file are read whatever their suffix (rosbag.is_bag): what is left here
+    # is the older ROS 1 format (1.2) or an MCAP signature of another version
+    (b"#ROSBAG", "a ROS 1 bag of another format than 2.0, the one read"),
+    (b"\x89MCAP", "an MCAP file of another version than 0"),
     (b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1", "an old Excel/Office (.xls) document"),
     (b"\x89PNG", "a PNG image"),
     (b"\xff\xd8\xff", "a JPEG image"),
@@ -978,12 +980,11 @@ _ARDUPILOT_EXPORT = "export its IMU message: mavlogdump.py --format csv --types 
 _LOG_REMEDY = {
     b"\xa3\x95\x80": _ARDUPILOT_EXPORT,
 }
-#: what to do with a bag under another suffix: it is read under its own (a rosbag recording that did not close
-#: is X.bag.active, without its index)
+#: what to do with a bag file that is not read under its suffix
 _BAG_REMEDY = {
-    b"#ROSBAG": "give it the suffix .bag (a .bag.active file is a recording that did not close: rosbag reindex it)",
+    b"#ROSBAG": "write it anew in format 2.0 with ROS 1's rosbag (rosbag filter IN.bag OUT.bag True)",
     b"SQLite format 3\x00": f"a ROS 2 bag: give it the suffix .db3; else {_EXPORT_REMEDY}",
-    b"\x89MCAP": "give it the suffix .mcap",
+    b"\x89MCAP": "check that the file is whole, or write it anew (mcap recover IN.mcap -o OUT.mcap)",
 }
 
 

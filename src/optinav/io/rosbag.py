@@ -44,9 +44,46 @@ _MIN_MSG_BYTES = 64
 
 
 def is_bag(path) -> bool:
-    """True for a path that names a ROS bag: a ``.bag``/``.db3``/``.mcap`` file or a folder with ``metadata.yaml``."""
+    """True for a path that names a ROS bag: a ``.bag``/``.db3``/``.mcap`` file, a folder with ``metadata.yaml``, or
+    a file under another suffix that starts as a ROS 1 bag or an MCAP file does (``X.bag.active``)."""
+    from optinav.io.bagrepair import bag_kind
+
     p = Path(path)
-    return p.suffix.lower() in BAG_SUFFIXES or (p.is_dir() and (p / "metadata.yaml").is_file())
+    if p.suffix.lower() in BAG_SUFFIXES:
+        return True
+    if p.is_dir():
+        return (p / "metadata.yaml").is_file() or bool(_storage_files(p))
+    return p.is_file() and bag_kind(p) is not None
+
+
+def _storage_files(folder: Path) -> list[Path]:
+    """The rosbag2 storage files (.db3, .mcap) in ``folder``, by name."""
+    try:
+        return sorted(p for p in folder.iterdir() if p.suffix.lower() in (".db3", ".mcap") and p.is_file())
+    except OSError:
+        return []
+
+
+def _unclosed_folder(path: Path) -> Path:
+    """The one storage file of a rosbag2 folder without metadata.yaml (``ros2 bag record`` writes it when the
+    recording closes), with a warning; more than one, or none, is refused."""
+    files = _storage_files(path)
+    if not files:
+        raise OptinavError(
+            f"{path} is a folder without metadata.yaml, not a ROS 2 bag",
+            "pass the bag folder, its .db3/.mcap file, or a ROS 1 .bag file",
+        )
+    if len(files) > 1:
+        raise OptinavError(
+            f"{path} holds {len(files)} bag files ({', '.join(f.name for f in files)}) and no metadata.yaml: its "
+            "recording did not close",
+            "pass one of the files, or write the folder's metadata.yaml anew (ros2 bag reindex FOLDER)",
+        )
+    warnings.warn(
+        f"{path.name} has no metadata.yaml (its recording did not close): read from its one file {files[0].name}",
+        stacklevel=3,
+    )
+    return files[0]
 
 
 def _rosbags():
@@ -79,17 +116,14 @@ def load_bag(path, *, topic=None, only=None):
     if not path.exists():
         raise OptinavError(f"data file {path} does not exist", "check the path")
     if path.is_dir() and not (path / "metadata.yaml").is_file():
-        raise OptinavError(
-            f"{path} is a folder without metadata.yaml, not a ROS 2 bag",
-            "pass the bag folder, its .db3/.mcap file, or a ROS 1 .bag file",
-        )
+        path = _unclosed_folder(path)
     if path.is_file() and path.stat().st_size == 0:
         raise OptinavError(f"data file {path} is empty", "pass a complete bag")
     _check_wal(path)
     wanted = _parse_topics(topic)
     AnyReader = _rosbags()
     _metadata.cache_clear()  # parsed once in this read; the next read parses its own (a read's time holds its parse)
-    inflated = _inflated_load(path, topic)
+    inflated = _inflated_load(path, topic) or _repaired_load(path, topic)
     if inflated is not None:
         return inflated
     got = _ros1_quick(path, wanted) if path.is_file() and path.suffix.lower() == ".bag" else _sqlite_quick(path, wanted)
@@ -216,6 +250,61 @@ def _inflated_load(path: Path, topic):
         info["files"] = [dict(e, path=Path(e["path"]).stem) for e in info.get("files") or [] if isinstance(e, dict)]
         YAML(typ="safe").dump({"rosbag2_bagfile_information": info}, plain / "metadata.yaml")
         table = load_bag(plain, topic=topic)
+    table.path = path
+    return table
+
+
+def _repaired_load(path: Path, topic):
+    """:func:`load_bag` of a ROS 1 or MCAP file under another suffix (``X.bag.active``: read through a link named
+    for its format, which rosbags' reader goes by) or of one whose recording did not close (read from the copy
+    :func:`optinav.io.bagrepair.repair` writes into a temporary folder, with a warning of what was left out); None
+    for anything else. Messages name ``path``, not the link or the copy."""
+    import shutil
+    import tempfile
+
+    from optinav.io import bagrepair
+
+    if not path.is_file():
+        return None
+    kind = bagrepair.bag_kind(path)
+    if kind is None:
+        return None
+    broken = bagrepair.needs_repair(path, kind)
+    suffix = bagrepair.SUFFIX[kind]
+    if not broken and path.suffix.lower() == suffix:
+        return None
+    with tempfile.TemporaryDirectory(prefix="optinav-bag-") as tmp:
+        twin = Path(tmp) / (path.name + suffix)
+        try:
+            if broken:
+                fixed = bagrepair.repair(path, twin, kind)
+            else:
+                try:
+                    twin.symlink_to(path.resolve())
+                except OSError:  # no symbolic links here (Windows without the right): a copy
+                    shutil.copyfile(path, twin)
+        except bagrepair.NotFast as exc:
+            raise OptinavError(
+                f"{path.name} is not a readable ROS bag: {exc} (a recording that did not close, or a copy cut short)",
+                "check that the file is the whole bag",
+            ) from None
+        except OSError as exc:
+            raise OptinavError(
+                f"cannot write a readable copy of {path.name} into a temporary folder ({exc.strerror or exc})",
+                "check that TMPDIR points at a disk with room for a copy of the bag",
+            ) from None
+        if broken:
+            warnings.warn(fixed.words(path.name), stacklevel=5)
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
+            try:
+                table = load_bag(twin, topic=topic)
+            except OptinavError as exc:
+                raise type(exc)(
+                    exc.cause.replace(twin.name, path.name), exc.remedy and exc.remedy.replace(twin.name, path.name)
+                ) from None
+        for w in said:
+            warnings.warn(str(w.message).replace(twin.name, path.name), w.category, stacklevel=5)
     table.path = path
     return table
 

@@ -1,0 +1,223 @@
+"""Bags as a recording leaves them when it does not close — the recorder killed, the disk full, the power gone — and
+bags under another suffix: ROS 1 ``X.bag.active`` (no index; the last chunk still open), MCAP files without summary
+or footer, rosbag2 folders without metadata.yaml. Written with rosbags' writer, then cut as the writers leave them
+(ros_comm's rosbag_storage: the header's index position and an open chunk's sizes stay 0 until they are written at
+close; the MCAP summary, footer and closing magic come last). What is read is exactly the messages written up to the
+cut; the input is never written."""
+
+import hashlib
+import struct
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from optinav.cli.main import main
+from optinav.errors import OptinavError
+from optinav.io import bagscan, read_imu
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_rosbag import IMU, _joined_tables, imu_msg, imu_topic, write_bag  # noqa: E402
+
+N = 600
+
+
+def _digest(folder: Path) -> dict:
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.iterdir()) if p.is_file()}
+
+
+def _ros1(tmp_path: Path, compression=None, n=N, seed=3):
+    """A ROS 1 bag of ``n`` Imu messages in chunks of ~12 KB: (its bytes, its index, t, gyr)."""
+    msgs, t, gyr, _ = imu_topic(np.random.default_rng(seed), n=n, rate=200.0)
+    bag = write_bag(
+        tmp_path / f"full_{compression}", "ros1", {"/imu": (IMU, msgs)}, compression, chunk_threshold=12_000
+    )
+    return bytearray(bag.read_bytes()), bagscan.ros1_index(bag), t, gyr
+
+
+def _unindexed(raw: bytearray, idx: dict, state: str) -> tuple[bytearray, int]:
+    """The bag as its recording leaves it, ``state``: "closed" (every chunk closed, the index not written), "open"
+    (the last chunk open: its sizes 0, no index records after it), "cut" (open, and its last record cut short).
+    Also the message count of the chunks that were closed."""
+    f, _, _ = bagscan._record(raw, len(bagscan._ROS1_MAGIC), len(raw))
+    at = f[b"index_pos"][0]
+    closed = sum(idx["counts"].values())
+    if state == "closed":
+        out = bytearray(raw[: idx["index_pos"]])
+    else:
+        pos, held = idx["chunks"][-1]
+        closed -= sum(held.values())
+        g, ds, de = bagscan._record(raw, pos, len(raw))
+        out = bytearray(raw[:de])
+        out[g[b"size"][0] : g[b"size"][0] + 4] = bytes(4)
+        out[ds - 4 : ds] = bytes(4)
+        if state == "cut":
+            out = out[:-100]
+    out[at : at + 8] = bytes(8)
+    return out, closed
+
+
+@pytest.mark.parametrize("compression", [None, "lz4", "bz2"])
+@pytest.mark.parametrize("state", ["closed", "open", "cut"])
+def test_a_ros1_recording_that_did_not_close_gives_the_messages_it_holds(tmp_path, compression, state):
+    """Read from a reindexed copy: every message of the closed chunks, and of an open uncompressed chunk those
+    whose records are complete (a compressed stream cut anywhere is left out, and said so); a warning says what
+    was read. Streamed alike. The .bag.active file and its folder are left as they were."""
+    raw, idx, t, gyr = _ros1(tmp_path, compression)
+    data, closed = _unindexed(raw, idx, state)
+    folder = tmp_path / "rec"
+    folder.mkdir()
+    active = folder / "rec.bag.active"
+    active.write_bytes(data)
+    before = _digest(folder)
+    n = (
+        N
+        if state == "closed" or (compression is None and state == "open")
+        else N - 1
+        if compression is None
+        else closed
+    )
+    with pytest.warns(
+        UserWarning,
+        match=r"^rec\.bag\.active has no index \(a recording that did not close, or a copy cut short\): read from a reindexed",
+    ):
+        log = read_imu(active)
+    assert len(log) == n and np.array_equal(log.t, t[:n]) and np.array_equal(log.gyr, gyr[:n])
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        _, tab = _joined_tables(active, 128)
+    assert np.array_equal(tab["gx"], gyr[:n, 0])
+    text = " ".join(str(w.message) for w in said)
+    if compression and state != "closed":
+        assert f"unfinished {compression}-compressed last chunk) are left out" in text
+    elif state != "closed":
+        assert f"and the {n - closed} complete messages of its unfinished last chunk" in text
+    assert ("(an unfinished record) are left out" in text) == (state == "cut" and compression is None)
+    assert _digest(folder) == before
+
+
+def test_a_bag_under_another_suffix_is_read_as_the_bag_it_is(tmp_path, capsys):
+    """A closed bag renamed (rec.bag.active, imu.log) is read by its signature, with no warning, and its errors name
+    it (they were "give it the suffix .bag")."""
+    raw, _, t, gyr = _ros1(tmp_path, n=40)
+    active = tmp_path / "rec.bag.active"
+    active.write_bytes(raw)
+    msgs, t2, gyr2, _ = imu_topic(np.random.default_rng(5), n=30)
+    mcap = write_bag(tmp_path / "m", "mcap-file", {"/imu": (IMU, msgs)}).rename(tmp_path / "imu.log")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        a, m = read_imu(active), read_imu(mcap)
+    assert np.array_equal(a.t, t) and np.array_equal(a.gyr, gyr)
+    assert np.array_equal(m.t, t2) and np.array_equal(m.gyr, gyr2)
+    assert main(["allan", str(active), "--topic", "/gps", "--out", str(tmp_path / "x.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "rec.bag.active has no topic '/gps'" in err[0] and ".active.bag" not in err[0]
+
+
+@pytest.mark.parametrize("cut", ["summary", "chunk"])
+def test_an_mcap_recording_that_did_not_close_gives_its_complete_chunks(tmp_path, cut):
+    """An MCAP file without summary, footer and closing magic (cut where its data end, or inside its last chunk):
+    its complete chunks, closed in a copy (rosbags' writer closes a chunk at 1 MiB: 2952 of these messages)."""
+    n_all = 3000
+    msgs, t, gyr, _ = imu_topic(np.random.default_rng(7), n=n_all)
+    path = write_bag(tmp_path / "r", "mcap-file", {"/imu": (IMU, msgs)})
+    raw = path.read_bytes()
+    recs, pos = [], 8
+    while raw[pos] != 0x0F:
+        end = pos + 9 + struct.unpack_from("<Q", raw, pos + 1)[0]
+        recs.append((raw[pos], pos, end))
+        pos = end
+    chunks = [r for r in recs if r[0] == 0x06]
+    keep = pos if cut == "summary" else chunks[-1][1] + 60
+    path.write_bytes(raw[:keep])
+    with pytest.warns(
+        UserWarning,
+        match=r"r\.mcap has no summary or footer \(a recording that did not close, or a copy cut short\): read from a closed copy",
+    ):
+        log = read_imu(path)
+    n = len(log)
+    assert n == (n_all if cut == "summary" else 2952)
+    assert np.array_equal(log.t, t[:n]) and np.array_equal(log.gyr, gyr[:n])
+
+
+def test_a_rosbag2_folder_without_metadata_reads_its_one_file(tmp_path):
+    """ros2 bag record writes metadata.yaml when it closes: a folder without one is read from its one storage
+    file, with a warning; two files are named, not joined."""
+    msgs, t, gyr, _ = imu_topic(np.random.default_rng(9), n=50)
+    folder = write_bag(tmp_path / "rec", "sqlite3", {"/imu": (IMU, msgs)})
+    (folder / "metadata.yaml").unlink()
+    with pytest.warns(
+        UserWarning, match=r"rec has no metadata\.yaml \(its recording did not close\): read from its one"
+    ):
+        log = read_imu(folder)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr)
+    (folder / "rec_1.db3").write_bytes((folder / "rec.db3").read_bytes())
+    with pytest.raises(OptinavError, match=r"holds 2 bag files \(rec\.db3, rec_1\.db3\) and no metadata\.yaml"):
+        read_imu(folder)
+
+
+@settings(max_examples=40)
+@given(kind=st.sampled_from(["ros1", "ros1-lz4", "mcap"]), share=st.floats(0.0, 1.0))
+def test_a_bag_cut_anywhere_gives_a_prefix_of_its_messages_or_one_line(tmp_path_factory, kind, share):
+    """A recording cut at any byte (a ROS 1 bag with no index, an MCAP file): the messages read are exactly the
+    first ones written, at least those of the chunks complete before the cut (and of an uncompressed chunk cut
+    short, its complete records); a refusal, where no chunk is complete, is one line (no traceback)."""
+    tmp = tmp_path_factory.mktemp("cut")
+    msgs, t, gyr, _ = imu_topic(np.random.default_rng(11), n=200)
+    if kind == "mcap":
+        path = write_bag(tmp / "b", "mcap-file", {"/imu": (IMU, msgs)})
+    else:
+        path = write_bag(tmp / "b", "ros1", {"/imu": (IMU, msgs)}, kind[5:] or None, chunk_threshold=4000)
+    raw = bytearray(path.read_bytes())
+    cut = max(1, int(share * len(raw)))
+    if kind == "mcap":  # one chunk: all of it once the data section is whole
+        due = len(msgs) if cut >= raw.rfind(b"\x0f\x04\x00\x00\x00\x00\x00\x00\x00") else 0
+    else:
+        idx = bagscan.ros1_index(path)
+        f, _, _ = bagscan._record(raw, len(bagscan._ROS1_MAGIC), len(raw))
+        raw[f[b"index_pos"][0] : f[b"index_pos"][0] + 8] = bytes(8)
+        ends = [p for p, _ in idx["chunks"][1:]] + [idx["index_pos"]]  # each chunk with its index records
+        due = sum(sum(held.values()) for (_, held), end in zip(idx["chunks"], ends) if end <= cut)
+    path.write_bytes(raw[:cut])
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            log = read_imu(path)
+    except OptinavError as exc:
+        assert "\n" not in str(exc) and due == 0
+        return
+    n = len(log)
+    assert n >= due and np.array_equal(log.t, t[:n]) and np.array_equal(log.gyr, gyr[:n])
+
+
+def test_calibrate_from_a_recording_that_did_not_close(tmp_path, capsys):
+    """The CLI end to end: a simulated multi-position session recorded to a ROS 1 bag that did not close calibrates
+    like its samples as CSV; the console says what was read."""
+    csv = tmp_path / "s.csv"
+    argv = ["--quiet", "simulate", "accel-multipos", "--out", str(csv), "--scheme", "paper12", "--dwell", "4"]
+    assert main([*argv, "--seed", "4"]) == 0
+    log = read_imu(csv)
+    ns = np.round(log.t * 1e9).astype(np.int64) + 1_700_000_000 * 10**9
+    msgs = [
+        (int(ns[i]), lambda ts, i=i: imu_msg(ts, ns[i] // 10**9, ns[i] % 10**9, log.gyr[i], log.acc[i]))
+        for i in range(len(log))
+    ]
+    bag = write_bag(tmp_path / "bag", "ros1", {"/imu": (IMU, msgs)})
+    data, _ = _unindexed(bytearray(bag.read_bytes()), bagscan.ros1_index(bag), "closed")
+    active = tmp_path / "session.bag.active"
+    active.write_bytes(data)
+    out_csv, out_bag = tmp_path / "c.json", tmp_path / "b.json"
+    assert main(["--quiet", "calibrate", "accel", str(csv), "--gravity", "9.80", "--out", str(out_csv)]) == 0
+    capsys.readouterr()
+    assert main(["calibrate", "accel", str(active), "--gravity", "9.80", "--out", str(out_bag)]) == 0
+    assert "session.bag.active has no index (a recording that did not close" in capsys.readouterr().err
+    from optinav.multipos.result import CalibrationResult
+
+    rc, rb = CalibrationResult.from_json(out_csv), CalibrationResult.from_json(out_bag)
+    for sensor in ("accelerometer", "gyroscope"):
+        np.testing.assert_allclose(getattr(rb, sensor)["K"], getattr(rc, sensor)["K"], rtol=1e-6, atol=1e-9)
+        np.testing.assert_allclose(getattr(rb, sensor)["b"], getattr(rc, sensor)["b"], rtol=1e-6, atol=1e-6)
