@@ -254,14 +254,18 @@ def _inflated_load(path: Path, topic):
     return table
 
 
+#: the readable copies or links made in this process, newest last, by (path, size, modification time): a command
+#: that reads its input twice (the attitude stream's two passes) repairs it and says so once; each is removed when
+#: it leaves this list or at exit
+_TWINS: dict = {}
+_TWINS_KEPT = 2
+
+
 def _repaired_load(path: Path, topic):
     """:func:`load_bag` of a ROS 1 or MCAP file under another suffix (``X.bag.active``: read through a link named
     for its format, which rosbags' reader goes by) or of one whose recording did not close (read from the copy
     :func:`optinav.io.bagrepair.repair` writes into a temporary folder, with a warning of what was left out); None
     for anything else. Messages name ``path``, not the link or the copy."""
-    import shutil
-    import tempfile
-
     from optinav.io import bagrepair
 
     if not path.is_file():
@@ -270,43 +274,64 @@ def _repaired_load(path: Path, topic):
     if kind is None:
         return None
     broken = bagrepair.needs_repair(path, kind)
-    suffix = bagrepair.SUFFIX[kind]
-    if not broken and path.suffix.lower() == suffix:
+    if not broken and path.suffix.lower() == bagrepair.SUFFIX[kind]:
         return None
-    with tempfile.TemporaryDirectory(prefix="optinav-bag-") as tmp:
-        twin = Path(tmp) / (path.name + suffix)
+    twin = _twin(path, kind, broken)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
         try:
-            if broken:
-                fixed = bagrepair.repair(path, twin, kind)
-            else:
-                try:
-                    twin.symlink_to(path.resolve())
-                except OSError:  # no symbolic links here (Windows without the right): a copy
-                    shutil.copyfile(path, twin)
-        except bagrepair.NotFast as exc:
-            raise OptinavError(
-                f"{path.name} is not a readable ROS bag: {exc} (a recording that did not close, or a copy cut short)",
-                "check that the file is the whole bag",
+            table = load_bag(twin, topic=topic)
+        except OptinavError as exc:
+            raise type(exc)(
+                exc.cause.replace(twin.name, path.name), exc.remedy and exc.remedy.replace(twin.name, path.name)
             ) from None
-        except OSError as exc:
-            raise OptinavError(
-                f"cannot write a readable copy of {path.name} into a temporary folder ({exc.strerror or exc})",
-                "check that TMPDIR points at a disk with room for a copy of the bag",
-            ) from None
-        if broken:
-            warnings.warn(fixed.words(path.name), stacklevel=5)
-        with warnings.catch_warnings(record=True) as said:
-            warnings.simplefilter("always")
-            try:
-                table = load_bag(twin, topic=topic)
-            except OptinavError as exc:
-                raise type(exc)(
-                    exc.cause.replace(twin.name, path.name), exc.remedy and exc.remedy.replace(twin.name, path.name)
-                ) from None
-        for w in said:
-            warnings.warn(str(w.message).replace(twin.name, path.name), w.category, stacklevel=5)
+    for w in said:
+        warnings.warn(str(w.message).replace(twin.name, path.name), w.category, stacklevel=5)
     table.path = path
     return table
+
+
+def _twin(path: Path, kind: str, broken: bool) -> Path:
+    """The readable copy (``broken``: :func:`optinav.io.bagrepair.repair`, with its warning) or link of the bag
+    file ``path`` in a temporary folder, made once while it stays in :data:`_TWINS`."""
+    import shutil
+    import tempfile
+
+    from optinav.io import bagrepair
+
+    st = path.stat()
+    key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
+    if key in _TWINS and _TWINS[key][1].exists():
+        _TWINS[key] = _TWINS.pop(key)
+        return _TWINS[key][1]
+    folder = tempfile.TemporaryDirectory(prefix="optinav-bag-")
+    twin = Path(folder.name) / (path.name + bagrepair.SUFFIX[kind])
+    try:
+        if broken:
+            fixed = bagrepair.repair(path, twin, kind)
+        else:
+            try:
+                twin.symlink_to(path.resolve())
+            except OSError:  # no symbolic links here (Windows without the right): a copy
+                shutil.copyfile(path, twin)
+    except bagrepair.NotFast as exc:
+        folder.cleanup()
+        raise OptinavError(
+            f"{path.name} is not a readable ROS bag: {exc} (a recording that did not close, or a copy cut short)",
+            "check that the file is the whole bag",
+        ) from None
+    except OSError as exc:
+        folder.cleanup()
+        raise OptinavError(
+            f"cannot write a readable copy of {path.name} into a temporary folder ({exc.strerror or exc})",
+            "check that TMPDIR points at a disk with room for a copy of the bag",
+        ) from None
+    if broken:
+        warnings.warn(fixed.words(path.name), stacklevel=6)
+    _TWINS[key] = (folder, twin)
+    while len(_TWINS) > _TWINS_KEPT:
+        _TWINS.pop(next(iter(_TWINS)))[0].cleanup()
+    return twin
 
 
 def _written_out(fh) -> None:
