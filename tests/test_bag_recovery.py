@@ -234,9 +234,9 @@ def test_copies_are_made_once_per_file_and_removed(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         read_imu(paths[0])
-        first = next(twin for key, (_, twin) in rosbag._TWINS.items() if key[0] == str(paths[0].resolve()))
+        first = next(twin for key, (_, twin) in rosbag._TWINS.items() if key[0][0] == str(paths[0].resolve()))
         assert np.array_equal(read_imu(paths[0]).t, t) and first.exists()
         for p in paths[1:]:
             read_imu(p)
     assert not first.parent.exists() and all(twin.exists() for _, twin in rosbag._TWINS.values())
-    assert {key[0] for key in rosbag._TWINS} == {str(p.resolve()) for p in paths[1:]}
+    assert {key[0][0] for key in rosbag._TWINS} == {str(p.resolve()) for p in paths[1:]}

@@ -119,13 +119,12 @@ def load_bag(path, *, topic=None, only=None):
         path = _unclosed_folder(path)
     if path.is_file() and path.stat().st_size == 0:
         raise OptinavError(f"data file {path} is empty", "pass a complete bag")
-    _check_wal(path)
     wanted = _parse_topics(topic)
     AnyReader = _rosbags()
     _metadata.cache_clear()  # parsed once in this read; the next read parses its own (a read's time holds its parse)
-    inflated = _inflated_load(path, topic) or _repaired_load(path, topic)
-    if inflated is not None:
-        return inflated
+    copied = _folded_load(path, topic) or _inflated_load(path, topic) or _repaired_load(path, topic)
+    if copied is not None:
+        return copied
     got = _ros1_quick(path, wanted) if path.is_file() and path.suffix.lower() == ".bag" else _sqlite_quick(path, wanted)
     if got is None:
         try:
@@ -160,21 +159,62 @@ def load_bag(path, *, topic=None, only=None):
     return _bag_table(path, imu_topic, t, gyr, acc, mag_topic, (tm, b[0]), 0)
 
 
-def _check_wal(path: Path) -> None:
-    """Refuse a rosbag2 sqlite3 file with a non-empty write-ahead log beside it (``X.db3-wal``: a recording still
-    running, or one that crashed, with ``--storage-preset-profile resilient``): its newest messages are only in
-    the log, which neither the scanners nor rosbags read (half of such a bag was read with exit 0), and the
-    input is never written, so no checkpoint here."""
+def _logged(path: Path) -> list[tuple[Path, Path]]:
+    """(db3, its write-ahead log) of each rosbag2 sqlite3 file of ``path`` (a .db3 or a bag folder) with a non-empty
+    ``X.db3-wal`` beside it (a recording in WAL mode — ``--storage-preset-profile resilient`` — still running or that
+    did not close): its newest messages are only in the log, which neither the scanners nor rosbags read."""
     files = [path] if path.is_file() else sorted(path.glob("*.db3")) if path.is_dir() else []
+    out = []
     for f in files:
         wal = f.with_name(f.name + "-wal")
         if f.suffix.lower() == ".db3" and wal.is_file() and wal.stat().st_size > 0:
-            raise OptinavError(
-                f"{f.name} has a write-ahead log ({wal.name}, {wal.stat().st_size} bytes) with messages not yet in "
-                "the database: the recording is still running or did not close",
-                "stop the recording; or copy the .db3 with its -wal file and fold the log into the copy "
-                "(sqlite3 COPY.db3 'PRAGMA wal_checkpoint(TRUNCATE)')",
-            )
+            out.append((f, wal))
+    return out
+
+
+def _folded_load(path: Path, topic):
+    """:func:`load_bag` of a sqlite3 bag whose write-ahead log holds messages (:func:`_logged`): read from a copy in
+    a temporary folder with the log folded in by SQLite itself (a checkpoint of the copy: the input is never
+    written), with a warning; None for any other bag."""
+    logged = _logged(path)
+    if not logged:
+        return None
+
+    def fold(folder: Path) -> tuple[Path, str]:
+        import shutil
+        import sqlite3
+
+        dst = folder / path.name
+        if path.is_dir():
+            dst.mkdir()
+            for f in path.iterdir():
+                if f.is_file() and not f.name.endswith("-shm"):
+                    shutil.copyfile(f, dst / f.name)
+            dbs = [dst / f.name for f, _ in logged]
+        else:
+            shutil.copyfile(path, dst)
+            shutil.copyfile(logged[0][1], folder / logged[0][1].name)
+            dbs = [dst]
+        for db in dbs:
+            try:
+                con = sqlite3.connect(f"file:{db}?mode=rw", uri=True)
+                try:
+                    con.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+                    con.execute("PRAGMA journal_mode=DELETE")
+                finally:
+                    con.close()
+            except sqlite3.Error as exc:
+                raise OptinavError(
+                    f"{db.name} with its write-ahead log is not a readable database ({exc})",
+                    "check that the .db3 and its -wal file were copied whole, together",
+                ) from None
+        sizes = ", ".join(f"{w.name}: {w.stat().st_size} bytes" for _, w in logged)
+        return dst, (
+            f"{path.name} has a write-ahead log ({sizes}) with messages not yet in the database (a recording still "
+            "running, or one that did not close): read from a copy with the log folded in"
+        )
+
+    return _read_twin(path, _copy_once(path, fold, [w for _, w in logged]), topic)
 
 
 def _file_compressed(path: Path) -> tuple[dict, list[Path]] | None:
@@ -265,7 +305,7 @@ def _repaired_load(path: Path, topic):
     """:func:`load_bag` of a ROS 1 or MCAP file under another suffix (``X.bag.active``: read through a link named
     for its format, which rosbags' reader goes by) or of one whose recording did not close (read from the copy
     :func:`optinav.io.bagrepair.repair` writes into a temporary folder, with a warning of what was left out); None
-    for anything else. Messages name ``path``, not the link or the copy."""
+    for anything else."""
     from optinav.io import bagrepair
 
     if not path.is_file():
@@ -276,7 +316,30 @@ def _repaired_load(path: Path, topic):
     broken = bagrepair.needs_repair(path, kind)
     if not broken and path.suffix.lower() == bagrepair.SUFFIX[kind]:
         return None
-    twin = _twin(path, kind, broken)
+
+    def make(folder: Path) -> tuple[Path, str | None]:
+        import shutil
+
+        twin = folder / (path.name + bagrepair.SUFFIX[kind])
+        try:
+            if broken:
+                return twin, bagrepair.repair(path, twin, kind).words(path.name)
+            try:
+                twin.symlink_to(path.resolve())
+            except OSError:  # no symbolic links here (Windows without the right): a copy
+                shutil.copyfile(path, twin)
+            return twin, None
+        except bagrepair.NotFast as exc:
+            raise OptinavError(
+                f"{path.name} is not a readable ROS bag: {exc} (a recording that did not close, or a copy cut short)",
+                "check that the file is the whole bag",
+            ) from None
+
+    return _read_twin(path, _copy_once(path, make), topic)
+
+
+def _read_twin(path: Path, twin: Path, topic):
+    """:func:`load_bag` of ``twin``, the readable copy or link of ``path``: its messages and warnings name ``path``."""
     with warnings.catch_warnings(record=True) as said:
         warnings.simplefilter("always")
         try:
@@ -291,43 +354,30 @@ def _repaired_load(path: Path, topic):
     return table
 
 
-def _twin(path: Path, kind: str, broken: bool) -> Path:
-    """The readable copy (``broken``: :func:`optinav.io.bagrepair.repair`, with its warning) or link of the bag
-    file ``path`` in a temporary folder, made once while it stays in :data:`_TWINS`."""
-    import shutil
+def _copy_once(path: Path, make, deps=()) -> Path:
+    """The readable copy (or link) of ``path`` that ``make(folder)`` writes into a new temporary folder and returns
+    with its warning (or None, no warning), made once while it stays in :data:`_TWINS` (keyed by the path, size and
+    modification time of ``path`` and of the files ``deps`` it also depends on)."""
     import tempfile
 
-    from optinav.io import bagrepair
-
-    st = path.stat()
-    key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
+    key = tuple((str(p.resolve()), st.st_size, st.st_mtime_ns) for p in (path, *deps) for st in (p.stat(),))
     if key in _TWINS and _TWINS[key][1].exists():
         _TWINS[key] = _TWINS.pop(key)
         return _TWINS[key][1]
     folder = tempfile.TemporaryDirectory(prefix="optinav-bag-")
-    twin = Path(folder.name) / (path.name + bagrepair.SUFFIX[kind])
     try:
-        if broken:
-            fixed = bagrepair.repair(path, twin, kind)
-        else:
-            try:
-                twin.symlink_to(path.resolve())
-            except OSError:  # no symbolic links here (Windows without the right): a copy
-                shutil.copyfile(path, twin)
-    except bagrepair.NotFast as exc:
-        folder.cleanup()
-        raise OptinavError(
-            f"{path.name} is not a readable ROS bag: {exc} (a recording that did not close, or a copy cut short)",
-            "check that the file is the whole bag",
-        ) from None
+        twin, said = make(Path(folder.name))
     except OSError as exc:
         folder.cleanup()
         raise OptinavError(
             f"cannot write a readable copy of {path.name} into a temporary folder ({exc.strerror or exc})",
             "check that TMPDIR points at a disk with room for a copy of the bag",
         ) from None
-    if broken:
-        warnings.warn(fixed.words(path.name), stacklevel=6)
+    except BaseException:
+        folder.cleanup()
+        raise
+    if said:
+        warnings.warn(said, stacklevel=6)
     _TWINS[key] = (folder, twin)
     while len(_TWINS) > _TWINS_KEPT:
         _TWINS.pop(next(iter(_TWINS)))[0].cleanup()
@@ -1319,8 +1369,7 @@ def iter_bag(path, *, topic=None, chunk_rows: int, progress=None):
     stamps neither fine nor all zero (copies to leave out), or at most ``chunk_rows`` messages: one table from
     :func:`load_bag`. ``progress(fraction)`` after each table."""
     path = Path(path)
-    _check_wal(path)
-    plan = _stream_plan(path, _parse_topics(topic))
+    plan = None if _logged(path) else _stream_plan(path, _parse_topics(topic))
     if plan is None:
         yield load_bag(path, topic=topic)
         return
