@@ -24,11 +24,13 @@ import numpy as np
 from optinav.io.bagscan import (
     _MCAP_MAGIC,
     _ROS1_MAGIC,
+    _U16,
     _U32,
     _U64,
     NotFast,
     _decompress,
     _fields,
+    _mcap_head,
     _op,
     _record,
     _release,
@@ -321,9 +323,13 @@ def _ros1(mm, out) -> Repair:
 # --- MCAP -----------------------------------------------------------------------------------------------------
 
 
-def _mcap(mm, out) -> Repair:
+def _mcap_scan(mm) -> tuple[list[dict], dict, int, str]:
+    """The complete top-level records of an MCAP data section: [{pos, end, head: (start, end, uncompressed size,
+    compression, records' span), index: {channel: Message Index record offset}, index_len, counts}] of its
+    chunks, the Schema and Channel records outside chunks ({(op, id): record bytes}), where the complete records
+    end, and what follows ("" when nothing)."""
     size = len(mm)
-    pos, keep, chunks, why = len(_MCAP_MAGIC), None, 0, ""
+    pos, chunks, top, why = len(_MCAP_MAGIC), [], {}, ""
     while pos < size:
         if pos + 9 > size:
             why = "an unfinished record"
@@ -332,18 +338,109 @@ def _mcap(mm, out) -> Repair:
         if op in (0x0F, 0x02):  # Data End or Footer: the data section ends here
             why = "a summary cut short"
             break
-        if pos + 9 + n > size:
+        end = pos + 9 + n
+        if end > size:
             why = "an unfinished chunk" if op == 0x06 else "an unfinished record"
             break
-        chunks += op == 0x06
+        if op == 0x06:
+            try:
+                kind, data, usize, _, span = _mcap_head(mm, pos + 9, n)
+            except NotFast:
+                why = "a chunk it cannot read"
+                break
+            if not isinstance(data, tuple):  # compressed: the records' span, not a copy of them
+                data = (end - len(data), end)
+            chunks.append({"pos": pos, "end": end, "kind": kind, "data": data, "usize": usize, "span": span,
+                           "index": {}, "index_len": 0, "counts": {}})  # fmt: skip
+        elif op == 0x07 and chunks and chunks[-1]["end"] + chunks[-1]["index_len"] == pos:
+            c = chunks[-1]
+            chan = _U16.unpack_from(mm, pos + 9)[0]
+            c["index"][chan] = pos
+            c["counts"][chan] = _U32.unpack_from(mm, pos + 11)[0] // 16
+            c["index_len"] += end - pos
+        elif op in (0x03, 0x04):
+            top[(op, _U16.unpack_from(mm, pos + 9)[0])] = bytes(mm[pos:end])
+        _release(mm, pos, end)
+        pos = end
+    return chunks, top, pos, why
+
+
+def _inner(mm, c: dict, wanted: set) -> dict:
+    """The Schema and Channel records inside the chunk ``c`` ({(op, id): record bytes}) of those ``wanted``."""
+    if c["kind"] in ("", "none"):
+        buf, pos, end = mm, *c["data"]
+    else:
+        buf = _decompress(c["kind"], bytes(mm[slice(*c["data"])]))
+        pos, end = 0, len(buf)
+    found = {}
+    while pos + 9 <= end:
+        op, n = buf[pos], _U64.unpack_from(buf, pos + 1)[0]
+        if pos + 9 + n > end:
+            break
+        if op in (0x03, 0x04) and (op, _U16.unpack_from(buf, pos + 9)[0]) in wanted:
+            found[(op, _U16.unpack_from(buf, pos + 9)[0])] = bytes(buf[pos : pos + 9 + n])
         pos += 9 + n
-        keep = pos
-    if keep is None or not chunks:
+    return found
+
+
+def _summary(mm, chunks: list[dict], top: dict) -> bytes | None:
+    """The summary section of the complete chunks — their Schema and Channel records, a Chunk Index per chunk and
+    the Statistics — or None where a chunk has no Message Index records or a channel's records are nowhere (the
+    file is then closed without one)."""
+    if not chunks or any(not c["index"] for c in chunks):
+        return None
+    have = dict(top)
+    channels = set()
+    for c in chunks:
+        new = {(0x04, ch) for ch in c["index"]} - set(have)
+        if new:
+            have.update(_inner(mm, c, new))
+            schemas = {(0x03, _U16.unpack_from(have[k], 11)[0]) for k in new if k in have}
+            have.update(_inner(mm, c, schemas - set(have)))
+        channels |= set(c["index"])
+    if any((0x04, ch) not in have for ch in channels):
+        return None
+    schemas = {_U16.unpack_from(have[(0x04, ch)], 11)[0] for ch in channels} - {0}
+    if any((0x03, sid) not in have for sid in schemas):
+        return None
+
+    def string(text: bytes) -> bytes:
+        return _U32.pack(len(text)) + text
+
+    def record(op: int, body: bytes) -> bytes:
+        return bytes([op]) + _U64.pack(len(body)) + body
+
+    out = [have[(0x03, sid)] for sid in sorted(schemas)] + [have[(0x04, ch)] for ch in sorted(channels)]
+    for c in chunks:
+        offsets = b"".join(_U16.pack(ch) + _U64.pack(off) for ch, off in sorted(c["index"].items()))
+        stored = c["data"][1] - c["data"][0]
+        body = (struct.pack("<QQQQ", *c["span"], c["pos"], c["end"] - c["pos"]) + _U32.pack(len(offsets)) + offsets
+                + _U64.pack(c["index_len"]) + string(c["kind"].encode()) + struct.pack("<QQ", stored, c["usize"]))  # fmt: skip
+        out.append(record(0x08, body))
+    counts: dict = {}
+    for c in chunks:
+        for ch, k in c["index"].items():
+            counts[ch] = counts.get(ch, 0) + c["counts"][ch]
+    per = b"".join(_U16.pack(ch) + _U64.pack(k) for ch, k in sorted(counts.items()))
+    stats = (_U64.pack(sum(counts.values())) + _U16.pack(len(schemas)) + struct.pack("<IIII", len(channels), 0, 0,
+             len(chunks)) + struct.pack("<QQ", min(c["span"][0] for c in chunks), max(c["span"][1] for c in chunks))
+             + _U32.pack(len(per)) + per)  # fmt: skip
+    out.append(record(0x0B, stats))
+    return b"".join(out)
+
+
+def _mcap(mm, out) -> Repair:
+    chunks, top, keep, why = _mcap_scan(mm)
+    if not chunks:
         raise NotFast("it holds no complete chunk")
+    summary = _summary(mm, chunks, top)
     for a in range(0, keep, _PIECE):
         out.write(memoryview(mm)[a : min(keep, a + _PIECE)])
         _release(mm, a, a + _PIECE)
     out.write(bytes([0x0F]) + _U64.pack(4) + _U32.pack(0))  # Data End, no CRC
-    out.write(bytes([0x02]) + _U64.pack(20) + struct.pack("<QQI", 0, 0, 0))  # Footer: no summary
+    start = out.tell() if summary else 0
+    if summary:
+        out.write(summary)
+    out.write(bytes([0x02]) + _U64.pack(20) + struct.pack("<QQI", start, 0, 0))  # Footer: no summary offsets
     out.write(_MCAP_MAGIC)
-    return Repair("mcap", chunks, 0, size - keep, why)
+    return Repair("mcap", len(chunks), 0, len(mm) - keep, why)
