@@ -84,9 +84,10 @@ def test_a_ros1_recording_that_did_not_close_gives_the_messages_it_holds(tmp_pat
     with warnings.catch_warnings(record=True) as said:
         warnings.simplefilter("always")
         log = read_imu(active)
-        _, tab = _joined_tables(active, 128)  # a second read (the attitude stream's passes): the same copy
+        blocks, tab = _joined_tables(active, 128)  # a second read (the attitude stream's passes): the same copy
     assert len(log) == n and np.array_equal(log.t, t[:n]) and np.array_equal(log.gyr, gyr[:n])
     assert np.array_equal(tab["gx"], gyr[:n, 0])
+    assert len(blocks) == -(-n // 128) and all(b.path == active for b in blocks)  # streamed from the copy
     (text,) = [str(w.message) for w in said]  # said once
     assert text.startswith("rec.bag.active has no index (a recording that did not close, or a copy cut short): read")
     if compression and state != "closed":
@@ -149,6 +150,8 @@ def test_an_mcap_recording_that_did_not_close_gives_its_complete_chunks(tmp_path
     n = len(log)
     assert n == (n_all if cut == "summary" else 2952)
     assert np.array_equal(log.t, t[:n]) and np.array_equal(log.gyr, gyr[:n])
+    blocks, tab = _joined_tables(path, 1000)
+    assert len(blocks) == -(-n // 1000) and np.array_equal(tab["gx"], gyr[:n, 0])
     copy = tmp_path / "copy.mcap"
     bagrepair.repair(path, copy, "mcap")
     with open(copy, "rb") as fh:

@@ -122,9 +122,12 @@ def load_bag(path, *, topic=None, only=None):
     wanted = _parse_topics(topic)
     AnyReader = _rosbags()
     _metadata.cache_clear()  # parsed once in this read; the next read parses its own (a read's time holds its parse)
-    copied = _folded_load(path, topic) or _inflated_load(path, topic) or _repaired_load(path, topic)
-    if copied is not None:
-        return copied
+    twin = _readable_twin(path)
+    if twin is not None:
+        return _as_path(path, twin, lambda: load_bag(twin, topic=topic))
+    inflated = _inflated_load(path, topic)
+    if inflated is not None:
+        return inflated
     got = _ros1_quick(path, wanted) if path.is_file() and path.suffix.lower() == ".bag" else _sqlite_quick(path, wanted)
     if got is None:
         try:
@@ -172,10 +175,10 @@ def _logged(path: Path) -> list[tuple[Path, Path]]:
     return out
 
 
-def _folded_load(path: Path, topic):
-    """:func:`load_bag` of a sqlite3 bag whose write-ahead log holds messages (:func:`_logged`): read from a copy in
-    a temporary folder with the log folded in by SQLite itself (a checkpoint of the copy: the input is never
-    written), with a warning; None for any other bag."""
+def _folded_twin(path: Path) -> Path | None:
+    """A copy of a sqlite3 bag whose write-ahead log holds messages (:func:`_logged`), in a temporary folder with
+    the log folded in by SQLite itself (a checkpoint of the copy: the input is never written), with a warning;
+    None for any other bag."""
     logged = _logged(path)
     if not logged:
         return None
@@ -214,7 +217,7 @@ def _folded_load(path: Path, topic):
             "running, or one that did not close): read from a copy with the log folded in"
         )
 
-    return _read_twin(path, _copy_once(path, fold, [w for _, w in logged]), topic)
+    return _copy_once(path, fold, [w for _, w in logged])
 
 
 def _file_compressed(path: Path) -> tuple[dict, list[Path]] | None:
@@ -301,11 +304,16 @@ _TWINS: dict = {}
 _TWINS_KEPT = 2
 
 
-def _repaired_load(path: Path, topic):
-    """:func:`load_bag` of a ROS 1 or MCAP file under another suffix (``X.bag.active``: read through a link named
-    for its format, which rosbags' reader goes by) or of one whose recording did not close (read from the copy
-    :func:`optinav.io.bagrepair.repair` writes into a temporary folder, with a warning of what was left out); None
-    for anything else."""
+def _readable_twin(path: Path) -> Path | None:
+    """What to read for the bag ``path`` when the readers would refuse it as it is (:func:`_folded_twin`,
+    :func:`_repaired_twin`), else None."""
+    return _folded_twin(path) or _repaired_twin(path)
+
+
+def _repaired_twin(path: Path) -> Path | None:
+    """For a ROS 1 or MCAP file under another suffix (``X.bag.active``), a link named for its format, which
+    rosbags' reader goes by; for one whose recording did not close, the copy :func:`optinav.io.bagrepair.repair`
+    writes into a temporary folder, with a warning of what was left out; None for anything else."""
     from optinav.io import bagrepair
 
     if not path.is_file():
@@ -335,22 +343,24 @@ def _repaired_load(path: Path, topic):
                 "check that the file is the whole bag",
             ) from None
 
-    return _read_twin(path, _copy_once(path, make), topic)
+    return _copy_once(path, make)
 
 
-def _read_twin(path: Path, twin: Path, topic):
-    """:func:`load_bag` of ``twin``, the readable copy or link of ``path``: its messages and warnings name ``path``."""
+def _as_path(path: Path, twin: Path, step):
+    """``step()`` (a read of ``twin``, the readable copy or link of ``path``) with its errors and warnings naming
+    ``path``; tables it returns name ``path``."""
     with warnings.catch_warnings(record=True) as said:
         warnings.simplefilter("always")
         try:
-            table = load_bag(twin, topic=topic)
+            table = step()
         except OptinavError as exc:
             raise type(exc)(
                 exc.cause.replace(twin.name, path.name), exc.remedy and exc.remedy.replace(twin.name, path.name)
             ) from None
     for w in said:
-        warnings.warn(str(w.message).replace(twin.name, path.name), w.category, stacklevel=5)
-    table.path = path
+        warnings.warn(str(w.message).replace(twin.name, path.name), w.category, stacklevel=6)
+    if table is not None:
+        table.path = path
     return table
 
 
@@ -1369,7 +1379,13 @@ def iter_bag(path, *, topic=None, chunk_rows: int, progress=None):
     stamps neither fine nor all zero (copies to leave out), or at most ``chunk_rows`` messages: one table from
     :func:`load_bag`. ``progress(fraction)`` after each table."""
     path = Path(path)
-    plan = None if _logged(path) else _stream_plan(path, _parse_topics(topic))
+    twin = _readable_twin(path) if path.exists() else None
+    if twin is not None:  # the copy streamed like any bag (a recovered hours-long recording in bounded memory)
+        tables = iter_bag(twin, topic=topic, chunk_rows=chunk_rows, progress=progress)
+        while (table := _as_path(path, twin, lambda: next(tables, None))) is not None:
+            yield table
+        return
+    plan = _stream_plan(path, _parse_topics(topic))
     if plan is None:
         yield load_bag(path, topic=topic)
         return
