@@ -125,9 +125,6 @@ def load_bag(path, *, topic=None, only=None):
     twin = _readable_twin(path)
     if twin is not None:
         return _as_path(path, twin, lambda: load_bag(twin, topic=topic))
-    inflated = _inflated_load(path, topic)
-    if inflated is not None:
-        return inflated
     got = _ros1_quick(path, wanted) if path.is_file() and path.suffix.lower() == ".bag" else _sqlite_quick(path, wanted)
     if got is None:
         try:
@@ -254,47 +251,44 @@ def _metadata(text: str):
     return YAML(typ="safe").load(text)
 
 
-def _inflated_load(path: Path, topic):
-    """:func:`load_bag` of a bag compressed file by file: each file inflated into a temporary folder of the same
-    name (as rosbags' reader does) and read there as a plain bag by the storage's decoders — rosbags' message by
-    message iteration took 2.5–6 µs a message, these 0.6 µs; None when ``path`` is not such a bag."""
-    import shutil
-    import tempfile
-
-    from ruamel.yaml import YAML
-
-    from optinav.io.bagscan import zstd_module
-
+def _inflated_twin(path: Path) -> Path | None:
+    """A bag compressed file by file, each file inflated into a temporary folder of the same name (as rosbags'
+    reader does), to be read as a plain bag by the storage's decoders — rosbags' message by message iteration took
+    2.5–6 µs a message, these 0.6 µs; None when ``path`` is not such a bag."""
     got = _file_compressed(path)
     if got is None:
         return None
     info, files = got
-    zstd = zstd_module()
-    with tempfile.TemporaryDirectory(prefix="optinav-bag-") as tmp:
-        plain = Path(tmp) / path.name
-        try:
-            plain.mkdir()
-            for f in files:
+
+    def inflate(folder: Path) -> tuple[Path, None]:
+        import shutil
+
+        from ruamel.yaml import YAML
+
+        from optinav.io.bagscan import zstd_module
+
+        zstd = zstd_module()
+        plain = folder / path.name
+        plain.mkdir()
+        for f in files:
+            try:
                 with f.open("rb") as src, zstd.open(src, "rb") as z, (plain / f.stem).open("wb") as dst:
                     shutil.copyfileobj(z, dst, 1 << 20)
                     _written_out(dst)
-        except (zstd.ZstdError, EOFError) as exc:  # EOFError: a truncated file
-            raise OptinavError(
-                f"{path.name} is not a readable ROS bag: {f.name} is not a complete zstd file ({_why(exc)})",
-                "check that the bag was closed properly and copied whole",
-            ) from None
-        except OSError as exc:
-            raise OptinavError(
-                f"cannot inflate {path.name} into a temporary folder ({exc.strerror or exc}: {exc.filename})",
-                "check that the bag is readable and that TMPDIR points at a disk with room for it uncompressed",
-            ) from None
-        info = dict(info, compression_mode="", compression_format="")
-        info["relative_file_paths"] = [Path(f).stem for f in info["relative_file_paths"]]
-        info["files"] = [dict(e, path=Path(e["path"]).stem) for e in info.get("files") or [] if isinstance(e, dict)]
-        YAML(typ="safe").dump({"rosbag2_bagfile_information": info}, plain / "metadata.yaml")
-        table = load_bag(plain, topic=topic)
-    table.path = path
-    return table
+            except (zstd.ZstdError, EOFError) as exc:  # EOFError: a truncated file
+                raise OptinavError(
+                    f"{path.name} is not a readable ROS bag: {f.name} is not a complete zstd file ({_why(exc)})",
+                    "check that the bag was closed properly and copied whole",
+                ) from None
+        plain_info = dict(info, compression_mode="", compression_format="")
+        plain_info["relative_file_paths"] = [Path(f).stem for f in info["relative_file_paths"]]
+        plain_info["files"] = [
+            dict(e, path=Path(e["path"]).stem) for e in info.get("files") or [] if isinstance(e, dict)
+        ]
+        YAML(typ="safe").dump({"rosbag2_bagfile_information": plain_info}, plain / "metadata.yaml")
+        return plain, None
+
+    return _copy_once(path, inflate, files)
 
 
 #: the readable copies or links made in this process, newest last, by (path, size, modification time): a command
@@ -305,9 +299,9 @@ _TWINS_KEPT = 2
 
 
 def _readable_twin(path: Path) -> Path | None:
-    """What to read for the bag ``path`` when the readers would refuse it as it is (:func:`_folded_twin`,
-    :func:`_repaired_twin`), else None."""
-    return _folded_twin(path) or _repaired_twin(path)
+    """What to read for the bag ``path`` when the storage readers do not read it as it is (:func:`_folded_twin`,
+    :func:`_inflated_twin`, :func:`_repaired_twin`), else None."""
+    return _folded_twin(path) or _inflated_twin(path) or _repaired_twin(path)
 
 
 def _repaired_twin(path: Path) -> Path | None:
@@ -381,7 +375,8 @@ def _copy_once(path: Path, make, deps=()) -> Path:
         folder.cleanup()
         raise OptinavError(
             f"cannot write a readable copy of {path.name} into a temporary folder ({exc.strerror or exc})",
-            "check that TMPDIR points at a disk with room for a copy of the bag",
+            "check that the bag is readable and that TMPDIR points at a disk with room for a copy of it "
+            "(uncompressed, for a compressed bag)",
         ) from None
     except BaseException:
         folder.cleanup()
