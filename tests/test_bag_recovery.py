@@ -260,3 +260,19 @@ def test_copies_are_made_once_per_file_and_removed(tmp_path):
             read_imu(p)
     assert not first.parent.exists() and all(twin.exists() for _, twin in rosbag._TWINS.values())
     assert {key[0][0] for key in rosbag._TWINS} == {str(p.resolve()) for p in paths[1:]}
+
+
+@pytest.mark.parametrize("kind", ["mcap", "sqlite3"])
+def test_a_bag_compressed_file_by_file_streams_from_its_inflated_copy(tmp_path, kind):
+    """``ros2 bag record --compression-mode file``: inflated once into a temporary folder (the same copy for a
+    second read) and streamed from it in blocks — it was read whole, and inflated again by each read."""
+    from optinav.io import rosbag
+
+    msgs, t, gyr, _ = imu_topic(np.random.default_rng(3), n=500)
+    bag = write_bag(tmp_path / kind, kind, {"/imu": (IMU, msgs)}, compression="file")
+    blocks, tab = _joined_tables(bag, 100)
+    assert len(blocks) == 5 and all(b.path == bag for b in blocks)
+    assert np.array_equal(tab["t"], t) and np.array_equal(tab["gx"], gyr[:, 0])
+    copies = [twin for _, twin in rosbag._TWINS.values() if twin.name == bag.name]
+    assert len(copies) == 1 and np.array_equal(read_imu(bag).gyr, gyr)
+    assert [twin for _, twin in rosbag._TWINS.values() if twin.name == bag.name] == copies
