@@ -21,7 +21,7 @@ from optinav.errors import OptinavError
 from optinav.io import bagscan, read_imu
 
 sys.path.insert(0, str(Path(__file__).parent))
-from test_rosbag import IMU, _joined_tables, imu_msg, imu_topic, write_bag  # noqa: E402
+from test_rosbag import IMU, _joined_tables, imu_topic, session_messages, write_bag  # noqa: E402
 
 N = 600
 
@@ -214,15 +214,7 @@ def test_a_bag_cut_anywhere_gives_a_prefix_of_its_messages_or_one_line(tmp_path_
 def test_calibrate_from_a_recording_that_did_not_close(tmp_path, capsys):
     """The CLI end to end: a simulated multi-position session recorded to a ROS 1 bag that did not close calibrates
     like its samples as CSV; the console says what was read."""
-    csv = tmp_path / "s.csv"
-    argv = ["--quiet", "simulate", "accel-multipos", "--out", str(csv), "--scheme", "paper12", "--dwell", "4"]
-    assert main([*argv, "--seed", "4"]) == 0
-    log = read_imu(csv)
-    ns = np.round(log.t * 1e9).astype(np.int64) + 1_700_000_000 * 10**9
-    msgs = [
-        (int(ns[i]), lambda ts, i=i: imu_msg(ts, ns[i] // 10**9, ns[i] % 10**9, log.gyr[i], log.acc[i]))
-        for i in range(len(log))
-    ]
+    csv, _, msgs = session_messages(tmp_path)
     bag = write_bag(tmp_path / "bag", "ros1", {"/imu": (IMU, msgs)})
     data, _ = _unindexed(bytearray(bag.read_bytes()), bagscan.ros1_index(bag), "closed")
     active = tmp_path / "session.bag.active"

@@ -1764,33 +1764,23 @@ def test_missing_rosbags_names_the_extra(tmp_path, monkeypatch):
         load_bag(bag)
 
 
-def test_cli_calibrate_and_apply_read_a_bag(tmp_path, capsys):
-    """A simulated multi-position session as a ROS 2 bag calibrates like the same samples as CSV."""
+def session_messages(tmp_path):
+    """A simulated multi-position session (CSV, its log, its samples as Imu messages stamped from 1.7e9 s)."""
     csv = tmp_path / "s.csv"
-    assert (
-        main(
-            [
-                "--quiet",
-                "simulate",
-                "accel-multipos",
-                "--out",
-                str(csv),
-                "--scheme",
-                "paper12",
-                "--dwell",
-                "4",
-                "--seed",
-                "4",
-            ]
-        )
-        == 0
-    )
+    argv = ["--quiet", "simulate", "accel-multipos", "--out", str(csv), "--scheme", "paper12", "--dwell", "4"]
+    assert main([*argv, "--seed", "4"]) == 0
     log = read_imu(csv)
     ns = np.round(log.t * 1e9).astype(np.int64) + 1_700_000_000 * 10**9
     msgs = [
         (int(ns[i]), lambda ts, i=i: imu_msg(ts, ns[i] // 10**9, ns[i] % 10**9, log.gyr[i], log.acc[i]))
         for i in range(len(log))
     ]
+    return csv, log, msgs
+
+
+def test_cli_calibrate_and_apply_read_a_bag(tmp_path, capsys):
+    """A simulated multi-position session as a ROS 2 bag calibrates like the same samples as CSV."""
+    csv, log, msgs = session_messages(tmp_path)
     bag = write_bag(tmp_path / "bag", "sqlite3", {"/imu": (IMU, msgs)})
     out_csv, out_bag = tmp_path / "c.json", tmp_path / "b.json"
     assert main(["--quiet", "calibrate", "accel", str(csv), "--gravity", "9.80", "--out", str(out_csv)]) == 0
