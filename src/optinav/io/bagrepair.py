@@ -9,7 +9,9 @@ them — into a copy (:func:`repair`), never beside the input.
   sizes at 0 until the chunk closes, so an unfinished last chunk is read up to its last complete message record
   (when uncompressed: a compressed stream cut anywhere is left out). The copy gets the index.
 * MCAP (``ros2 bag record`` stopped without closing its file: no summary, footer or closing magic): the complete
-  records of the data section are kept and closed by a Data End and a Footer without summary (MCAP allows one).
+  records of the data section are kept and closed by a Data End, the summary the writer would have written for
+  them (the Schema and Channel records, a Chunk Index per chunk from the Message Index records after it, the
+  Statistics; where a chunk has none, no summary, which MCAP allows) and the Footer.
 """
 
 from __future__ import annotations
@@ -75,7 +77,8 @@ class Repair:
 
 
 def bag_kind(path: Path) -> str | None:
-    """ "ros1" or "mcap" for a file that starts with the format's magic (whatever its suffix), else None."""
+    """The kind of a file that starts with a bag format's magic, whatever its suffix: "ros1" or "mcap"; else
+    None."""
     try:
         with open(path, "rb") as fh:
             head = fh.read(len(_ROS1_MAGIC))
@@ -300,13 +303,13 @@ def _ros1(mm, out) -> Repair:
     for at, index in infos:
         e = np.concatenate(list(index.values()))
         ns = e["sec"].astype(np.uint64) * np.uint64(10**9) + e["nsec"]
-        first, last = e[int(np.argmin(ns))], e[int(np.argmax(ns))]
+        t0, t1 = e[int(np.argmin(ns))], e[int(np.argmax(ns))]
         fields = [
             (b"op", b"\x06"),
             (b"ver", _U32.pack(1)),
             (b"chunk_pos", _U64.pack(at)),
-            (b"start_time", _TIME.pack(int(first["sec"]), int(first["nsec"]))),
-            (b"end_time", _TIME.pack(int(last["sec"]), int(last["nsec"]))),
+            (b"start_time", _TIME.pack(int(t0["sec"]), int(t0["nsec"]))),
+            (b"end_time", _TIME.pack(int(t1["sec"]), int(t1["nsec"]))),
             (b"count", _U32.pack(len(index))),
         ]
         out.write(_record_bytes(fields, b"".join(struct.pack("<II", c, len(e)) for c, e in sorted(index.items()))))
@@ -324,10 +327,11 @@ def _ros1(mm, out) -> Repair:
 
 
 def _mcap_scan(mm) -> tuple[list[dict], dict, int, str]:
-    """The complete top-level records of an MCAP data section: [{pos, end, head: (start, end, uncompressed size,
-    compression, records' span), index: {channel: Message Index record offset}, index_len, counts}] of its
-    chunks, the Schema and Channel records outside chunks ({(op, id): record bytes}), where the complete records
-    end, and what follows ("" when nothing)."""
+    """The complete top-level records of an MCAP data section: its chunks, [{pos, end (of the Chunk record), kind
+    (compression), data (the span of its records, compressed or not), usize (uncompressed size), span (message
+    start and end times), index {channel: offset of its Message Index record}, index_len (bytes of those),
+    counts {channel: messages}}], the Schema and Channel records outside chunks ({(op, id): record bytes}), where
+    the complete records end, and what follows ("" when nothing)."""
     size = len(mm)
     pos, chunks, top, why = len(_MCAP_MAGIC), [], {}, ""
     while pos < size:
