@@ -160,14 +160,17 @@ def test_an_mcap_recording_that_did_not_close_gives_its_complete_chunks(tmp_path
 
 def test_a_rosbag2_folder_without_metadata_reads_its_one_file(tmp_path):
     """ros2 bag record writes metadata.yaml when it closes: a folder without one is read from its one storage
-    file, with a warning; two files are named, not joined."""
+    file, with a warning (once for a command that reads it twice); two files are named, not joined."""
     msgs, t, gyr, _ = imu_topic(np.random.default_rng(9), n=50)
     folder = write_bag(tmp_path / "rec", "sqlite3", {"/imu": (IMU, msgs)})
     (folder / "metadata.yaml").unlink()
-    with pytest.warns(
-        UserWarning, match=r"rec has no metadata\.yaml \(its recording did not close\): read from its one"
-    ):
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
         log = read_imu(folder)
+        assert np.array_equal(_joined_tables(folder, 16)[1]["gx"], gyr[:, 0])  # a second read: said once
+    assert [str(w.message) for w in said] == [
+        "rec has no metadata.yaml (its recording did not close): read from its one file rec.db3"
+    ]
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr)
     (folder / "rec_1.db3").write_bytes((folder / "rec.db3").read_bytes())
     with pytest.raises(OptinavError, match=r"holds 2 bag files \(rec\.db3, rec_1\.db3\) and no metadata\.yaml"):

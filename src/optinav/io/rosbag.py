@@ -79,11 +79,20 @@ def _unclosed_folder(path: Path) -> Path:
             "recording did not close",
             "pass one of the files, or write the folder's metadata.yaml anew (ros2 bag reindex FOLDER)",
         )
-    warnings.warn(
-        f"{path.name} has no metadata.yaml (its recording did not close): read from its one file {files[0].name}",
-        stacklevel=3,
-    )
+    key = (str(path.resolve()), files[0].stat().st_mtime_ns)
+    if key not in _FOLDERS_SAID:  # once per folder in a process, as for the copies (_TWINS)
+        _FOLDERS_SAID[key] = None
+        while len(_FOLDERS_SAID) > _TWINS_KEPT:
+            _FOLDERS_SAID.pop(next(iter(_FOLDERS_SAID)))
+        warnings.warn(
+            f"{path.name} has no metadata.yaml (its recording did not close): read from its one file {files[0].name}",
+            stacklevel=3,
+        )
     return files[0]
+
+
+#: the folders without metadata.yaml read from their one file in this process, newest last (said once each)
+_FOLDERS_SAID: dict = {}
 
 
 def _rosbags():
