@@ -36,6 +36,7 @@ from optinav.io.bagscan import (
     _op,
     _record,
     _release,
+    record_head,
 )
 
 __all__ = ["SUFFIX", "NotFast", "Repair", "bag_kind", "needs_repair", "repair"]
@@ -160,17 +161,6 @@ def _walk(buf, start: int, end: int) -> tuple[dict, dict, int]:
     return {c: np.array(e, dtype=_ENTRY) for c, e in index.items()}, conns, pos
 
 
-def _head(buf, pos: int, end: int) -> tuple[dict, int, int]:
-    """(header fields, data start, data stop as the record declares it — maybe beyond ``end``) of the ROS 1
-    record at ``pos``; raises :class:`NotFast` when its header is not complete before ``end``."""
-    if pos + 4 > end:
-        raise NotFast("truncated record")
-    he = pos + 4 + _U32.unpack_from(buf, pos)[0]
-    if he + 4 > end:
-        raise NotFast("truncated record")
-    return _fields(buf, pos + 4, he), he + 4, he + 4 + _U32.unpack_from(buf, he)[0]
-
-
 def _index_data(buf, f: dict, ds: int, de: int) -> tuple[int, np.ndarray]:
     """(conn, entries (:data:`_ENTRY`)) of an index data record (version 1: 12 bytes a message)."""
     count = _u32(buf, f, b"count")
@@ -194,7 +184,7 @@ def _chunks(mm, first: int) -> tuple[list[dict], dict, int, str]:
     pos, why = first, ""
     while pos < size:
         try:
-            f, ds, de = _head(mm, pos, size)
+            f, ds, de = record_head(mm, pos, size)
             op = _op(mm, f)
             if de > size and op != 0x05:
                 raise NotFast("an unfinished record")

@@ -576,17 +576,22 @@ def _fields(buf: bytes, start: int, end: int) -> dict:
 
 
 def _record(buf: bytes, pos: int, end: int) -> tuple[dict, int, int]:
-    """(header fields, data start, data stop) of the ROS 1 record at ``pos``."""
+    """(header fields, data start, data stop) of the ROS 1 record at ``pos``, whole before ``end``."""
+    f, ds, de = record_head(buf, pos, end)
+    if de > end:
+        raise NotFast("truncated record")
+    return f, ds, de
+
+
+def record_head(buf: bytes, pos: int, end: int) -> tuple[dict, int, int]:
+    """(header fields, data start, data stop as the record declares it — maybe beyond ``end``: a file cut short)
+    of the ROS 1 record at ``pos``; raises :class:`NotFast` when its header is not whole before ``end``."""
     if pos + 4 > end:
         raise NotFast("truncated record")
     he = pos + 4 + _U32.unpack_from(buf, pos)[0]
     if he + 4 > end:
         raise NotFast("truncated record")
-    ds = he + 4
-    de = ds + _U32.unpack_from(buf, he)[0]
-    if de > end:
-        raise NotFast("truncated record")
-    return _fields(buf, pos + 4, he), ds, de
+    return _fields(buf, pos + 4, he), he + 4, he + 4 + _U32.unpack_from(buf, he)[0]
 
 
 def _op(buf: bytes, f: dict) -> int:
