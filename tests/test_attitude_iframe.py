@@ -1085,6 +1085,29 @@ def test_the_streaming_step_is_compiled_once_for_float32_samples():
     assert len(_iframe.step.signatures) == 1
 
 
+def test_the_batch_kernel_is_compiled_once_for_column_views():
+    """Gyro and accelerometer as column blocks of one table (a (N, 6) log: views, not contiguous) compiled the
+    whole batch kernel a second time (~10 s on a cold cache) for numba's other array layout; float32 columns would
+    compile a third. They are made contiguous float64 first: one signature, the attitude of the same values."""
+    from optinav.attitude.iframe import run_iframe
+
+    gyr, acc, _ = motion(400, seed=5)
+    table = np.hstack([gyr, acc])
+    ref = run_iframe(gyr, acc, np.array([DT]), frame="NED").q_b_n
+    views = run_iframe(table[:, :3], table[:, 3:], np.array([DT]), frame="NED").q_b_n
+    t32 = table.astype(np.float32)
+    f32 = run_iframe(t32[:, :3], t32[:, 3:], np.array([DT]), frame="NED").q_b_n
+    assert np.array_equal(views, ref)
+    assert np.array_equal(
+        f32,
+        run_iframe(
+            gyr.astype(np.float32).astype(float), acc.astype(np.float32).astype(float), np.array([DT]), frame="NED"
+        ).q_b_n,
+    )
+    run_iframe(table[:, :3], table[:, 3:], np.array([DT]), frame="NED", mag=table[:, :3], offline=True)
+    assert len(_k.run.signatures) == 1
+
+
 def test_a_magnet_fixed_to_the_body_is_fitted_and_the_field_used_less_it():
     """A magnet on the board for 60 s (+12, −8, +25 µT in body axes on a 50 µT field) while the body turns, a
     0.1 °/s vertical gyro bias. The gates rejected the whole stretch and the heading followed the gyro (7.4° RMS,

@@ -392,6 +392,8 @@ def run_iframe(
     opts = dict(IFRAME_DEFAULTS)
     opts.update(options)
     par = _params(frame, opts)
+    # one layout for the kernel: a view (a column block of a table) would compile it again, ~10 s
+    gyr, acc = np.ascontiguousarray(gyr, dtype=float), np.ascontiguousarray(acc, dtype=float)
     m = np.zeros((0, 3)) if mag is None else np.ascontiguousarray(mag, dtype=float)
     n = gyr.shape[0]
     pin = None if pol is None else pol_inputs(pol, n, frame, "the IMU")
