@@ -857,11 +857,18 @@ def flicker_avar_factor(m) -> np.ndarray:
     m = np.asarray(m, dtype=float)
     out = np.ones(m.shape)
     for mi in np.unique(m[m <= _FLICKER_EXACT_M]):
-        k = int(400 * mi + 4000)
-        u = (np.arange(k) + 0.5) * (0.5 / k)  # midpoint rule; the integrand is smooth and → 0 at u = 0
-        g = 2.0 * np.sin(np.pi * u * mi) ** 4 / (mi**2 * np.sin(np.pi * u) ** 2) / (np.pi * u)
-        out[m == mi] = g.sum() * (0.5 / k) / FLICKER_FLOOR**2
+        out[m == mi] = _sampled_flicker(float(mi))
     return out
+
+
+@functools.lru_cache(maxsize=None)
+def _sampled_flicker(m: float) -> float:
+    """:func:`flicker_avar_factor` at one cluster size (kept: every fit and interval asks for the same few m, and
+    the sum takes 400·m + 4000 points)."""
+    k = int(400 * m + 4000)
+    u = (np.arange(k) + 0.5) * (0.5 / k)  # midpoint rule; the integrand is smooth and → 0 at u = 0
+    g = 2.0 * np.sin(np.pi * u * m) ** 4 / (m**2 * np.sin(np.pi * u) ** 2) / (np.pi * u)
+    return float(g.sum() * (0.5 / k) / FLICKER_FLOOR**2)
 
 
 def _fit_basis(tau: np.ndarray, m: np.ndarray) -> np.ndarray:
