@@ -6,6 +6,7 @@ close; the MCAP summary, footer and closing magic come last). What is read is ex
 cut; the input is never written."""
 
 import hashlib
+import shutil
 import struct
 import sys
 import warnings
@@ -18,10 +19,10 @@ from hypothesis import strategies as st
 
 from optinav.cli.main import main
 from optinav.errors import OptinavError
-from optinav.io import bagscan, read_imu
+from optinav.io import bagscan, read_imu, read_table
 
 sys.path.insert(0, str(Path(__file__).parent))
-from test_rosbag import IMU, _joined_tables, imu_topic, session_messages, write_bag  # noqa: E402
+from test_rosbag import IMU, MAG, _joined_tables, imu_topic, mag_msg, session_messages, write_bag  # noqa: E402
 
 N = 600
 
@@ -160,7 +161,7 @@ def test_an_mcap_recording_that_did_not_close_gives_its_complete_chunks(tmp_path
 
 def test_a_rosbag2_folder_without_metadata_reads_its_one_file(tmp_path):
     """ros2 bag record writes metadata.yaml when it closes: a folder without one is read from its one storage
-    file, with a warning (once for a command that reads it twice); two files are named, not joined."""
+    file, with a warning (once for a command that reads it twice)."""
     msgs, t, gyr, _ = imu_topic(np.random.default_rng(9), n=50)
     folder = write_bag(tmp_path / "rec", "sqlite3", {"/imu": (IMU, msgs)})
     (folder / "metadata.yaml").unlink()
@@ -172,8 +173,93 @@ def test_a_rosbag2_folder_without_metadata_reads_its_one_file(tmp_path):
         "rec has no metadata.yaml (its recording did not close): read from its one file rec.db3"
     ]
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr)
-    (folder / "rec_1.db3").write_bytes((folder / "rec.db3").read_bytes())
-    with pytest.raises(OptinavError, match=r"holds 2 bag files \(rec\.db3, rec_1\.db3\) and no metadata\.yaml"):
+
+
+def _split_recording(tmp_path, kind: str, parts: int, n: int, last_open: bool = False):
+    """A recording split into ``parts`` storage files (``ros2 bag record --max-bag-size``: rec_0 … rec_{parts-1})
+    and no metadata.yaml, with a MagneticField topic at a tenth of the rate; with ``last_open`` the last MCAP file
+    ends where its data end (no summary, footer or closing magic). Returns (folder, t, gyr, mag)."""
+    rng = np.random.default_rng(11)
+    msgs, t, gyr, _ = imu_topic(rng, n=n)
+    mag = rng.normal(0, 20e-6, (n // 10, 3))  # T, stamped as every tenth Imu message
+    ns = np.round(np.arange(n) / 100.0 * 1e9).astype(np.int64) + 123  # imu_topic's stamps past 1.7e9 s
+    mmsgs = [
+        (
+            msgs[10 * i][0] + 1000,
+            lambda ts, i=i: mag_msg(ts, 1_700_000_000 + ns[10 * i] // 10**9, ns[10 * i] % 10**9, mag[i]),
+        )
+        for i in range(n // 10)
+    ]
+    folder = tmp_path / "rec"
+    folder.mkdir()
+    for k in range(parts):
+        a, b = k * n // parts, (k + 1) * n // parts
+        part = write_bag(
+            tmp_path / f"part{k}",
+            kind,
+            {
+                "/imu": (IMU, msgs[a:b]),
+                "/mag": (MAG, [m for m in mmsgs if msgs[a][0] <= m[0] < msgs[b - 1][0] + 10**7]),
+            },
+        )
+        f = next(p for p in part.iterdir() if p.suffix in (".db3", ".mcap"))
+        f.rename(folder / f"rec_{k}{f.suffix}")
+        shutil.rmtree(part)
+    if last_open:
+        last = folder / f"rec_{parts - 1}.mcap"
+        raw = last.read_bytes()
+        pos = 8
+        while raw[pos] != 0x0F:  # to the Data End record
+            pos += 9 + struct.unpack_from("<Q", raw, pos + 1)[0]
+        last.write_bytes(raw[:pos])
+    return folder, t, gyr, mag
+
+
+@pytest.mark.parametrize("kind", ["sqlite3", "mcap", "mcap-open"])
+def test_a_split_recording_without_metadata_is_read_in_the_recorders_order(tmp_path, kind):
+    """A split recording that did not close (rec_0 … rec_10, the last MCAP file without its summary): its files
+    read in the recorder's order — by number, rec_10 after rec_9 (by name it came second) — as ``ros2 bag reindex``
+    would join them, the last closed in the copy; whole and streamed alike, the input folder unchanged. Two
+    files were refused."""
+    folder, t, gyr, mag = _split_recording(tmp_path, kind.split("-")[0], parts=11, n=330, last_open=kind == "mcap-open")
+    before = _digest(folder)
+    ext = ".db3" if kind == "sqlite3" else ".mcap"
+    names = ", ".join(f"rec_{k}{ext}" for k in range(11))
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        log, whole = read_imu(folder), read_table(folder)
+        blocks, tab = _joined_tables(folder, 64)
+    text = [str(w.message) for w in said]
+    assert text[0].startswith(
+        f"rec has no metadata.yaml (its recording did not close): read from its 11 files {names} in this order"
+    )
+    assert ("rec_10.mcap has no summary or footer" in text[0]) == (kind == "mcap-open")
+    assert len(text) == 1, text
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr)
+    for j, a in enumerate("xyz"):
+        assert np.array_equal(whole[f"m{a}"][::10], mag[:, j]) and np.array_equal(tab[f"m{a}"][::10], mag[:, j])
+    assert len(blocks) == -(-len(t) // 64) and np.array_equal(tab["gx"], gyr[:, 0])
+    assert _digest(folder) == before
+    from optinav.batch import find_units
+
+    assert [u.name for u in find_units(tmp_path)] == ["rec"]  # a batch's unit, as a closed bag folder
+
+
+def test_a_folder_of_two_recordings_is_refused_in_one_line(tmp_path):
+    """.db3 and .mcap files in one folder without metadata.yaml are not one recording; neither is one topic of two
+    types."""
+    folder, *_ = _split_recording(tmp_path, "sqlite3", parts=2, n=40)
+    other = write_bag(tmp_path / "other", "mcap", {"/imu": (IMU, imu_topic(np.random.default_rng(1), n=10)[0])})
+    next(other.glob("*.mcap")).rename(folder / "rec_2.mcap")
+    with pytest.raises(OptinavError, match=r"holds both \.db3 and \.mcap files .* not one recording"):
+        read_imu(folder)
+    (folder / "rec_2.mcap").unlink()
+    wrong = write_bag(tmp_path / "wrong", "sqlite3", {"/imu": (MAG, [])})
+    next(wrong.glob("*.db3")).rename(folder / "rec_2.db3")
+    with pytest.raises(
+        OptinavError,
+        match=r"topic /imu is sensor_msgs/msg/Imu in one file of rec and sensor_msgs/msg/MagneticField in rec_2\.db3",
+    ):
         read_imu(folder)
 
 

@@ -3,7 +3,8 @@ resumable (``optinav batch calibrate accel|rins|gfimu DIR``, ``optinav batch att
 
 A *unit* is one data file directly inside the folder (no recursion) whose suffix the readers know
 (:data:`optinav.io.readers.SUFFIXES`: text, NumPy, HDF5, MAT, Parquet, ROS bag files; text also as .gz) or a
-ROS 2 bag folder (a sub-folder holding ``metadata.yaml``), or a phone app's export (its zip or the sub-folder it
+ROS 2 bag folder (a sub-folder holding ``metadata.yaml``, or the storage files of a recording that did not
+close), or a phone app's export (its zip or the sub-folder it
 unzips to, :mod:`optinav.io.phone`), in sorted file-name order; hidden files (leading
 "."), the batch's own output/journal, any results table an earlier batch wrote there and .txt/.log notes
 without a line of numbers are skipped
@@ -188,6 +189,7 @@ def find_units(directory, *, exclude=(), skipped: list | None = None) -> list[Un
     named pipe, a broken or looping link), which are not units either."""
     from optinav.core.files import input_kind
     from optinav.io.phone import looks_like_export
+    from optinav.io.rosbag import is_bag
 
     d = Path(directory)
     if input_kind(d, "folder", "pass the folder holding one data file per unit") != "dir":
@@ -198,8 +200,9 @@ def find_units(directory, *, exclude=(), skipped: list | None = None) -> list[Un
         for p in sorted(d.iterdir(), key=lambda q: q.name):
             if p.name.startswith("."):
                 continue
-            if p.is_dir() and (p / "metadata.yaml").is_file():
-                found.append((p.name, p, _folder_stat(p)))  # a ROS 2 bag: a folder of metadata and storage files
+            if p.is_dir() and is_bag(p):
+                # a ROS 2 bag: a folder of metadata and storage files (or storage files alone: one that did not close)
+                found.append((p.name, p, _folder_stat(p)))
                 continue
             if p.is_dir() and looks_like_export(p):
                 found.append((p.name, p, _folder_stat(p)))  # a phone app's export unzipped

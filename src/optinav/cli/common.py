@@ -264,12 +264,6 @@ def require_files(*items: tuple[str | None, str]) -> None:
 
             if phone_export(path) is not None:  # a phone app's unzipped export, read file by file
                 continue
-            if any(Path(path).glob("*.db3")) or any(Path(path).glob("*.mcap")):
-                raise OptinavError(
-                    f"{what} {Path(path)} is a folder of ROS 2 bag files without metadata.yaml (a recording still "
-                    "running, or one that did not close)",
-                    "pass one of its .db3/.mcap files, or reindex the bag (ros2 bag reindex)",
-                )
             from optinav.io.readers import _folder_error
 
             raise _folder_error(Path(path), what) or OptinavError(f"{what} {Path(path)} is a folder", "check the path")

@@ -64,35 +64,138 @@ def _storage_files(folder: Path) -> list[Path]:
         return []
 
 
-def _unclosed_folder(path: Path) -> Path:
-    """The one storage file of a rosbag2 folder without metadata.yaml (``ros2 bag record`` writes it when the
-    recording closes), with a warning; more than one, or none, is refused."""
-    files = _storage_files(path)
+def _split_order(files: list[Path]) -> list[Path]:
+    """A split recording's storage files in the recorder's order: ``NAME_0``, ``NAME_1``, … ``NAME_10`` by number
+    (by name they sort ``NAME_10`` before ``NAME_2``); files not so named, by name."""
+    import re
+
+    numbered = [re.fullmatch(r"(.*)_(\d+)", f.stem) for f in files]
+    if len(files) > 1 and all(numbered) and len({m.group(1) for m in numbered}) == 1:
+        return [f for _, f in sorted(zip((int(m.group(2)) for m in numbered), files))]
+    return sorted(files)
+
+
+def _reindexed_twin(path: Path) -> Path | None:
+    """For a rosbag2 folder without metadata.yaml (``ros2 bag record`` writes it when the recording closes): a
+    folder of its storage files in the recorder's order (:func:`_split_order`), each as the storage readers read it
+    (an MCAP file that did not close closed by :func:`optinav.io.bagrepair.repair`, a .db3 with messages in its
+    write-ahead log a checkpointed copy, a link to any other), with the metadata.yaml that ``ros2 bag reindex``
+    writes (topics, types and counts from each file), and a warning; None for anything else."""
+    if not path.is_dir() or (path / "metadata.yaml").is_file():
+        return None
+    files = _split_order(_storage_files(path))
     if not files:
         raise OptinavError(
             f"{path} is a folder without metadata.yaml, not a ROS 2 bag",
             "pass the bag folder, its .db3/.mcap file, or a ROS 1 .bag file",
         )
-    if len(files) > 1:
+    if len({f.suffix.lower() for f in files}) > 1:
         raise OptinavError(
-            f"{path} holds {len(files)} bag files ({', '.join(f.name for f in files)}) and no metadata.yaml: its "
-            "recording did not close",
-            "pass one of the files, or write the folder's metadata.yaml anew (ros2 bag reindex FOLDER)",
+            f"{path} holds both .db3 and .mcap files ({', '.join(f.name for f in files)}) and no metadata.yaml: not "
+            "one recording",
+            "pass one of the files",
         )
-    key = (str(path.resolve()), files[0].stat().st_mtime_ns)
-    if key not in _FOLDERS_SAID:  # once per folder in a process, as for the copies (_TWINS)
-        _FOLDERS_SAID[key] = None
-        while len(_FOLDERS_SAID) > _TWINS_KEPT:
-            _FOLDERS_SAID.pop(next(iter(_FOLDERS_SAID)))
-        warnings.warn(
-            f"{path.name} has no metadata.yaml (its recording did not close): read from its one file {files[0].name}",
-            stacklevel=3,
+
+    def make(folder: Path) -> tuple[Path, str]:
+        twin = folder / path.name
+        twin.mkdir()
+        notes = [w for f in files if (w := _storage_copy(f, twin / f.name))]
+        _write_metadata(twin, [twin / f.name for f in files])
+        names = (
+            f"its one file {files[0].name}"
+            if len(files) == 1
+            else (f"its {len(files)} files {', '.join(f.name for f in files)} in this order")
         )
-    return files[0]
+        said = f"{path.name} has no metadata.yaml (its recording did not close): read from {names}"
+        return twin, "; ".join([said, *notes])
+
+    # every file a dependency: a recording still running grows its last file, not the folder's time
+    return _copy_once(path, make, [*files, *(w for f in files for _, w in _logged(f))])
 
 
-#: the folders without metadata.yaml read from their one file in this process, newest last (said once each)
-_FOLDERS_SAID: dict = {}
+def _storage_copy(src: Path, dst: Path) -> str | None:
+    """``src`` (one rosbag2 storage file) as the storage readers read it, at ``dst``: closed, checkpointed or linked
+    (:func:`_reindexed_twin`); what was done when more than a link, in words."""
+    import shutil
+
+    from optinav.io import bagrepair
+
+    if src.suffix.lower() == ".mcap" and bagrepair.bag_kind(src) == "mcap" and bagrepair.needs_repair(src, "mcap"):
+        try:
+            return bagrepair.repair(src, dst, "mcap").words(src.name)
+        except bagrepair.NotFast as exc:
+            raise OptinavError(
+                f"{src.name} is not a readable ROS bag: {exc} (a recording that did not close, or a copy cut short)",
+                "check that the file is the whole bag",
+            ) from None
+    logged = _logged(src)
+    if logged:
+        wal = logged[0][1]
+        shutil.copyfile(src, dst)
+        shutil.copyfile(wal, dst.with_name(dst.name + "-wal"))
+        _checkpoint(dst)
+        return f"{src.name}'s write-ahead log ({wal.stat().st_size} bytes) folded into a copy"
+    try:
+        dst.symlink_to(src.resolve())
+    except OSError:  # no symbolic links here (Windows without the right): a copy
+        shutil.copyfile(src, dst)
+    return None
+
+
+def _write_metadata(folder: Path, files: list[Path]) -> None:
+    """The metadata.yaml of the rosbag2 bag whose storage ``files`` are in ``folder``, as ``ros2 bag reindex``
+    writes it: each topic's type and message count, the start and duration, from rosbags' reader of each file."""
+    from ruamel.yaml import YAML
+
+    AnyReader = _rosbags()
+    topics: dict = {}
+    start, end = [], []
+    for f in files:
+        try:
+            with AnyReader([f]) as reader:
+                for con in reader.connections:
+                    seen = topics.setdefault(con.topic, {"type": con.msgtype, "count": 0})
+                    if seen["type"] != con.msgtype:
+                        raise OptinavError(
+                            f"topic {con.topic} is {seen['type']} in one file of {folder.name} and {con.msgtype} in "
+                            f"{f.name}: not one recording",
+                            "pass one of the files",
+                        )
+                    seen["count"] += con.msgcount
+                if reader.message_count:
+                    start.append(reader.start_time)
+                    end.append(reader.end_time)
+        except OptinavError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - rosbags raises its own errors and OS/struct errors on damaged files
+            raise OptinavError(
+                f"{f.name} is not a readable ROS bag ({_why(exc)})",
+                "check that the bag was closed properly (ros2 bag reindex FOLDER)",
+            ) from None
+    t0 = min(start, default=0)
+    info = {
+        "version": 4,
+        "storage_identifier": "mcap" if files[0].suffix.lower() == ".mcap" else "sqlite3",
+        "relative_file_paths": [f.name for f in files],
+        "duration": {"nanoseconds": max(end, default=t0) - t0},
+        "starting_time": {"nanoseconds_since_epoch": t0},
+        "message_count": sum(t["count"] for t in topics.values()),
+        "topics_with_message_count": [
+            {
+                "topic_metadata": {
+                    "name": name,
+                    "type": t["type"],
+                    "serialization_format": "cdr",
+                    "offered_qos_profiles": "",
+                },
+                "message_count": t["count"],
+            }
+            for name, t in topics.items()
+        ],  # fmt: skip
+        "compression_format": "",
+        "compression_mode": "",
+    }
+    YAML(typ="safe").dump({"rosbag2_bagfile_information": info}, folder / "metadata.yaml")
 
 
 def _rosbags():
@@ -124,8 +227,6 @@ def load_bag(path, *, topic=None, only=None):
     path = Path(path)
     if not path.exists():
         raise OptinavError(f"data file {path} does not exist", "check the path")
-    if path.is_dir() and not (path / "metadata.yaml").is_file():
-        path = _unclosed_folder(path)
     if path.is_file() and path.stat().st_size == 0:
         raise OptinavError(f"data file {path} is empty", "pass a complete bag")
     wanted = _parse_topics(topic)
@@ -191,7 +292,6 @@ def _folded_twin(path: Path) -> Path | None:
 
     def fold(folder: Path) -> tuple[Path, str]:
         import shutil
-        import sqlite3
 
         dst = folder / path.name
         if path.is_dir():
@@ -205,18 +305,7 @@ def _folded_twin(path: Path) -> Path | None:
             shutil.copyfile(logged[0][1], folder / logged[0][1].name)
             dbs = [dst]
         for db in dbs:
-            try:
-                con = sqlite3.connect(f"file:{db}?mode=rw", uri=True)
-                try:
-                    con.execute("PRAGMA wal_checkpoint(TRUNCATE)")
-                    con.execute("PRAGMA journal_mode=DELETE")
-                finally:
-                    con.close()
-            except sqlite3.Error as exc:
-                raise OptinavError(
-                    f"{db.name} with its write-ahead log is not a readable database ({exc})",
-                    "check that the .db3 and its -wal file were copied whole, together",
-                ) from None
+            _checkpoint(db)
         sizes = ", ".join(f"{w.name}: {w.stat().st_size} bytes" for _, w in logged)
         return dst, (
             f"{path.name} has a write-ahead log ({sizes}) with messages not yet in the database (a recording still "
@@ -224,6 +313,24 @@ def _folded_twin(path: Path) -> Path | None:
         )
 
     return _copy_once(path, fold, [w for _, w in logged])
+
+
+def _checkpoint(db: Path) -> None:
+    """Fold the write-ahead log beside the sqlite3 file ``db`` (a copy) into it, by SQLite itself."""
+    import sqlite3
+
+    try:
+        con = sqlite3.connect(f"file:{db}?mode=rw", uri=True)
+        try:
+            con.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+            con.execute("PRAGMA journal_mode=DELETE")
+        finally:
+            con.close()
+    except sqlite3.Error as exc:
+        raise OptinavError(
+            f"{db.name} with its write-ahead log is not a readable database ({exc})",
+            "check that the .db3 and its -wal file were copied whole, together",
+        ) from None
 
 
 def _file_compressed(path: Path) -> tuple[dict, list[Path]] | None:
@@ -308,9 +415,9 @@ _TWINS_KEPT = 2
 
 
 def _readable_twin(path: Path) -> Path | None:
-    """What to read for the bag ``path`` when the storage readers do not read it as it is (:func:`_folded_twin`,
-    :func:`_inflated_twin`, :func:`_repaired_twin`), else None."""
-    return _folded_twin(path) or _inflated_twin(path) or _repaired_twin(path)
+    """What to read for the bag ``path`` when the storage readers do not read it as it is (:func:`_reindexed_twin`,
+    :func:`_folded_twin`, :func:`_inflated_twin`, :func:`_repaired_twin`), else None."""
+    return _reindexed_twin(path) or _folded_twin(path) or _inflated_twin(path) or _repaired_twin(path)
 
 
 def _repaired_twin(path: Path) -> Path | None:
