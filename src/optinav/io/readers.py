@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import functools
+import operator
 import gzip
 import io
 import itertools
@@ -634,7 +635,11 @@ class TableChunks:
             while True:
                 more = block()
                 head += more
-                content += sum(1 for x in more if _strip_comment(x).strip())
+                for x in more:  # up to the lines wanted: a block of a large file holds a million
+                    if _strip_comment(x).strip():
+                        content += 1
+                        if content >= _HEAD_CONTENT:
+                            break
                 if not more or content >= _HEAD_CONTENT:
                     break
             lay = _text_layout(path, head, self.names, self.delimiter, labels, self.needed)
@@ -1858,7 +1863,7 @@ def _vn_fields(lines: list[str], name: str) -> list[str]:
         m = _VN_SENTENCE.match(x.strip())
         if m and m.group(1) == name:
             body = f"{name},{m.group(2)}"
-            if functools.reduce(lambda c, ch: c ^ ord(ch), body, 0) == int(m.group(3), 16):
+            if functools.reduce(operator.xor, body.encode("latin-1", "replace"), 0) == int(m.group(3), 16):
                 x = m.group(2)
         out.append(x)
     return out
