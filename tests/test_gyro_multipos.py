@@ -193,6 +193,23 @@ def test_bias_modes_methods_and_time_intervals(sim):
     np.testing.assert_allclose(np.linalg.norm(r, axis=1), ref.transition_residuals, rtol=1e-6, atol=1e-12)
 
 
+def test_the_axis_check_costs_equal_each_permutations_own_integration(sim):
+    """The axis-swap check's 48 costs Σ‖r‖² of K = k·P come from two integrations, rotated (the strapdown update
+    commutes with a rotation of its rates; a reflection is a rotation of the negated rates): each equals the cost
+    of integrating that K itself, with a coning correction and a bias."""
+    from optinav.multipos import gates
+    from optinav.multipos.transitions import Transitions
+
+    truth, iv, u0 = sim
+    raw, u = _measure(truth, u0, np.random.default_rng(8))
+    for coning in ("none", "previous"):
+        tr = Transitions(truth.t, raw, iv, u, coning)
+        perms = gates.signed_permutations()
+        k, b = 1.03 * COUNTS, np.array([0.3, -0.2, 0.1]) * COUNTS * 1e-2
+        own = [float(np.sum(tr.residuals(k * P, b) ** 2)) for P in perms]
+        np.testing.assert_allclose(tr.permutation_costs(k, b, perms), own, rtol=1e-9, atol=0)
+
+
 def test_result_json_roundtrip(sim, tmp_path):
     truth, iv, u0 = sim
     raw, u = _measure(truth, u0, np.random.default_rng(6))

@@ -336,9 +336,9 @@ def _check_axes(tr: Transitions, b: np.ndarray, k: float) -> None:
     from optinav.multipos import gates
 
     best, costs = None, {}
-    for P in gates.signed_permutations():
-        r = tr.residuals(k * P, b)
-        costs[P.tobytes()] = c = float(np.sum(r * r))
+    perms = gates.signed_permutations()
+    for P, c in zip(perms, tr.permutation_costs(k, b, perms)):
+        costs[P.tobytes()] = c
         if best is None or c < costs[best.tobytes()]:
             best = P
     c_id = costs[np.eye(3).tobytes()]

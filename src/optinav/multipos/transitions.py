@@ -80,6 +80,19 @@ class Transitions:
         q = self.rotations(K, b)
         return quat_rotate(quat_conjugate(q), self.u0) - self.u1
 
+    def permutation_costs(self, k: float, b, perms) -> np.ndarray:
+        """Σ‖r_k‖² for K = k·P, each P of ``perms`` a signed axis permutation: the rates become Pᵀω/k. Pᵀ = s·R
+        with R a rotation and s = det P, and the strapdown update (coning term included) commutes with a rotation
+        of its rates, so C_k(K) = R·C_k(s·k·I)·Rᵀ: two integrations serve all 48 permutations, not 48."""
+        qc = {s: quat_conjugate(self.rotations(s * k * np.eye(3), b)) for s in (1.0, -1.0)}
+        out = np.empty(len(perms))
+        for j, P in enumerate(perms):
+            s = 1.0 if np.linalg.det(P) > 0 else -1.0
+            R = s * np.asarray(P, float).T
+            r = quat_rotate(qc[s], self.u0 @ R) @ R.T - self.u1  # rows: R·C_kᵀ·Rᵀ·u_k − u_{k+1}
+            out[j] = float(np.sum(r * r))
+        return out
+
     def gravity_path(self, K, b) -> np.ndarray:
         """Unit specific-force direction per row (body frame, (rows, 3)): u_k carried along the turn."""
         w = (self.raw - b) @ np.linalg.inv(K).T
