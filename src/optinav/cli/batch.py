@@ -13,12 +13,13 @@ from optinav import registry
 _COMMON = """
     A unit is one data file directly in DIR (.csv .tsv .txt .dat .log, optionally .gz, .npz .npy .h5 .hdf5 .mat
     .parquet .pq, ROS bags .bag .db3 .mcap, PX4 logs .ulg) or a ROS 2 bag folder (with metadata.yaml, or
-    without: a recording that did not close); hidden files and STEM.truth.* skipped), in sorted order. A failing unit is recorded as failed and the
-    others continue. Finished rows go to RESULTS.csv.journal.jsonl as they finish; a re-run with the same --out
-    skips units whose file (name, size, mtime) and options are unchanged, so a killed run loses nothing already
-    finished. Local processes by default; --scheduler ADDRESS runs on a dask.distributed cluster (pip install
-    'optinav[dask]'; workers must see DIR at the same path). A worker that dies only loses its own unit; workers
-    exit with the batch. Columns: docs/batch.md. Exit status 1 when any unit failed or was lost."""
+    without: a recording that did not close); hidden files and STEM.truth.* skipped), in sorted order. A
+    failing unit is recorded as failed and the others continue. Finished rows go to RESULTS.csv.journal.jsonl
+    as they finish; a re-run with the same --out skips units whose file (name, size, mtime) and options are
+    unchanged, so a killed run loses nothing already finished. Local processes by default; --scheduler ADDRESS
+    runs on a dask.distributed cluster (pip install 'optinav[dask]'; workers must see DIR at the same path). A
+    worker that dies only loses its own unit; workers exit with the batch. Columns: docs/batch.md. Exit status 1
+    when any unit failed or was lost."""
 
 _EXAMPLES = {
     "accel": """\
