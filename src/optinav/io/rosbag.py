@@ -116,30 +116,49 @@ def _reindexed_twin(path: Path) -> Path | None:
 def _storage_copy(src: Path, dst: Path) -> str | None:
     """``src`` (one rosbag2 storage file) as the storage readers read it, at ``dst``: closed, checkpointed or linked
     (:func:`_reindexed_twin`); what was done when more than a link, in words."""
-    import shutil
-
     from optinav.io import bagrepair
 
     if src.suffix.lower() == ".mcap" and bagrepair.bag_kind(src) == "mcap" and bagrepair.needs_repair(src, "mcap"):
-        try:
-            return bagrepair.repair(src, dst, "mcap").words(src.name)
-        except bagrepair.NotFast as exc:
-            raise OptinavError(
-                f"{src.name} is not a readable ROS bag: {exc} (a recording that did not close, or a copy cut short)",
-                "check that the file is the whole bag",
-            ) from None
+        return _closed_copy(src, dst, "mcap")
     logged = _logged(src)
     if logged:
-        wal = logged[0][1]
-        shutil.copyfile(src, dst)
-        shutil.copyfile(wal, dst.with_name(dst.name + "-wal"))
-        _checkpoint(dst)
-        return f"{src.name}'s write-ahead log ({wal.stat().st_size} bytes) folded into a copy"
+        _folded_copy(src, logged[0][1], dst)
+        return f"{src.name}'s write-ahead log ({logged[0][1].stat().st_size} bytes) folded into a copy"
+    _link(src, dst)
+    return None
+
+
+def _closed_copy(src: Path, dst: Path, kind: str) -> str:
+    """The closed copy of the ROS 1 or MCAP bag ``src`` that did not close (:func:`optinav.io.bagrepair.repair`)
+    at ``dst``, and what it kept in words; one that holds nothing readable is refused."""
+    from optinav.io import bagrepair
+
+    try:
+        return bagrepair.repair(src, dst, kind).words(src.name)
+    except bagrepair.NotFast as exc:
+        raise OptinavError(
+            f"{src.name} is not a readable ROS bag: {exc} (a recording that did not close, or a copy cut short)",
+            "check that the file is the whole bag",
+        ) from None
+
+
+def _link(src: Path, dst: Path) -> None:
+    """``dst`` a symbolic link to ``src`` (or, where there are none, a copy)."""
+    import shutil
+
     try:
         dst.symlink_to(src.resolve())
     except OSError:  # no symbolic links here (Windows without the right): a copy
         shutil.copyfile(src, dst)
-    return None
+
+
+def _folded_copy(db: Path, wal: Path, dst: Path) -> None:
+    """A copy at ``dst`` of the sqlite3 file ``db`` with its write-ahead log ``wal`` folded in (:func:`_checkpoint`)."""
+    import shutil
+
+    shutil.copyfile(db, dst)
+    shutil.copyfile(wal, dst.with_name(dst.name + "-wal"))
+    _checkpoint(dst)
 
 
 def _write_metadata(folder: Path, files: list[Path]) -> None:
@@ -191,7 +210,7 @@ def _write_metadata(folder: Path, files: list[Path]) -> None:
                 "message_count": t["count"],
             }
             for name, t in topics.items()
-        ],  # fmt: skip
+        ],
         "compression_format": "",
         "compression_mode": "",
     }
@@ -299,13 +318,10 @@ def _folded_twin(path: Path) -> Path | None:
             for f in path.iterdir():
                 if f.is_file() and not f.name.endswith("-shm"):
                     shutil.copyfile(f, dst / f.name)
-            dbs = [dst / f.name for f, _ in logged]
+            for f, _ in logged:
+                _checkpoint(dst / f.name)
         else:
-            shutil.copyfile(path, dst)
-            shutil.copyfile(logged[0][1], folder / logged[0][1].name)
-            dbs = [dst]
-        for db in dbs:
-            _checkpoint(db)
+            _folded_copy(path, logged[0][1], dst)
         sizes = ", ".join(f"{w.name}: {w.stat().st_size} bytes" for _, w in logged)
         return dst, (
             f"{path.name} has a write-ahead log ({sizes}) with messages not yet in the database (a recording still "
@@ -436,22 +452,11 @@ def _repaired_twin(path: Path) -> Path | None:
         return None
 
     def make(folder: Path) -> tuple[Path, str | None]:
-        import shutil
-
         twin = folder / (path.name + bagrepair.SUFFIX[kind])
-        try:
-            if broken:
-                return twin, bagrepair.repair(path, twin, kind).words(path.name)
-            try:
-                twin.symlink_to(path.resolve())
-            except OSError:  # no symbolic links here (Windows without the right): a copy
-                shutil.copyfile(path, twin)
-            return twin, None
-        except bagrepair.NotFast as exc:
-            raise OptinavError(
-                f"{path.name} is not a readable ROS bag: {exc} (a recording that did not close, or a copy cut short)",
-                "check that the file is the whole bag",
-            ) from None
+        if broken:
+            return twin, _closed_copy(path, twin, kind)
+        _link(path, twin)
+        return twin, None
 
     return _copy_once(path, make)
 
