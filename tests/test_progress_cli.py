@@ -87,3 +87,37 @@ def test_generation_bars_only_directly_inside_a_task():
         assert in_task()
         for _ in progress(range(1), enabled=True):
             assert not in_task()  # one outer bar per run is enough
+
+
+def test_a_long_compile_is_said_once_and_a_loaded_kernel_not():
+    """The first run after installing compiles numba's kernels for seconds (the attitude filter's 15-20 s) with
+    nothing on the screen: the note says so once, while a compile lasts longer than ``after_s``; a kernel already
+    compiled (or loaded from numba's cache: no compile event) is not said, nor anything when not on a terminal."""
+    import io
+
+    import numba
+
+    from optinav.core.progress import COMPILE_NOTE, compile_note
+
+    def fresh():
+        @numba.njit
+        def total(n):
+            s = 0.0
+            for i in range(n):
+                s += i * 0.5
+            return s
+
+        return total
+
+    f = fresh()
+    said = io.StringIO()
+    with compile_note(after_s=0.0, enabled=True, stream=said):
+        assert f(4) == 3.0
+    assert said.getvalue() == COMPILE_NOTE + "\n"
+    again = io.StringIO()
+    with compile_note(after_s=0.0, enabled=True, stream=again):
+        f(5)
+    assert again.getvalue() == ""
+    with compile_note(after_s=0.0, enabled=False, stream=again):
+        fresh()(4)
+    assert again.getvalue() == ""

@@ -132,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _dispatch(args) -> int:
     from optinav.core.files import protect_inputs
-    from optinav.core.progress import task
+    from optinav.core.progress import compile_note, task
 
     # commands that take seconds name a task; their steps (core.progress.step) advance its bar on a terminal
     label = getattr(args, "progress_task", None)
@@ -141,6 +141,7 @@ def _dispatch(args) -> int:
             protect_inputs(_input_paths(args)),
             warnings.catch_warnings(),
             task(label) if label else contextlib.nullcontext(),
+            compile_note(),
         ):
             warnings.showwarning = _one_line_warning
             code = int(args.func(args) or 0)

@@ -12,6 +12,8 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
+import threading
+import time
 from collections.abc import Iterable, Iterator
 from typing import TypeVar
 
@@ -236,3 +238,87 @@ def step(label: str) -> None:
         bar = _TASKS[-1]
         bar.set_postfix_str(label, refresh=False)
         bar.update(1)
+
+
+#: what :func:`compile_note` says
+COMPILE_NOTE = (
+    "optinav: compiling the numerical kernels (once after installing or upgrading; later runs load them from "
+    "numba's cache) ..."
+)
+
+
+@contextlib.contextmanager
+def compile_note(after_s: float = 1.5, enabled: bool | None = None, stream=None):
+    """Say once, on stderr, when numba compiles for longer than ``after_s`` s inside the block: the first run after
+    installing compiles the kernels (the attitude filter's 15-20 s), and a command silent that long looks hung.
+    numba is not imported for it (a bad input file is reported before numba loads): a watcher thread registers a
+    listener on numba's compile events (``numba.core.event``) once something else has imported numba.
+
+    Parameters
+    ----------
+    after_s : float
+        Compile time [s] before the note.
+    enabled : bool or None
+        Watch; None: :func:`progress_enabled` (a terminal, not silenced).
+    stream : file or None
+        Where the note goes (None: stderr, above any open bar).
+
+    Yields
+    ------
+    None
+    """
+    show = progress_enabled() if enabled is None else enabled
+    if not show:
+        yield
+        return
+    state = {"since": None, "depth": 0, "said": False}
+    stop = threading.Event()
+    hooked = []
+
+    def on_start(_event):
+        if state["depth"] == 0:
+            state["since"] = time.monotonic()
+        state["depth"] += 1
+
+    def on_end(_event):
+        state["depth"] = max(state["depth"] - 1, 0)
+        if state["depth"] == 0:
+            state["since"] = None
+
+    def say():
+        if stream is None and (_TASKS or _LOOPS):
+            from tqdm.auto import tqdm as bars
+
+            bars.write(COMPILE_NOTE, file=sys.stderr)  # above the open bars
+        else:
+            print(COMPILE_NOTE, file=sys.stderr if stream is None else stream, flush=True)
+        state["said"] = True
+
+    def hook() -> bool:
+        ev = sys.modules.get("numba.core.event")
+        if ev is None or not all(hasattr(ev, k) for k in ("Listener", "register", "unregister")):
+            return False  # numba not (yet wholly) imported
+        methods = {"on_start": staticmethod(on_start), "on_end": staticmethod(on_end)}
+        listener = type("_CompileWatch", (ev.Listener,), methods)()
+        ev.register("numba:compile", listener)
+        hooked.append((ev, listener))
+        return True
+
+    def watch():
+        while not state["said"] and not stop.wait(min(0.05, max(after_s / 4, 0.005))):
+            if not hooked and not hook():
+                continue
+            since = state["since"]
+            if since is not None and time.monotonic() - since >= after_s:
+                say()
+
+    hook()  # at once where numba is loaded already; else the watcher, as soon as it is (before its first compile)
+    thread = threading.Thread(target=watch, name="optinav-compile-note", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join()
+        for ev, listener in hooked:
+            ev.unregister("numba:compile", listener)
