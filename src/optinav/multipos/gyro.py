@@ -335,18 +335,15 @@ def _check_axes(tr: Transitions, b: np.ndarray, k: float) -> None:
     K ∝ I cannot reach a permutation)."""
     from optinav.multipos import gates
 
-    best, costs = None, {}
-    perms = gates.signed_permutations()
-    for P, c in zip(perms, tr.permutation_costs(k, b, perms)):
-        costs[P.tobytes()] = c
-        if best is None or c < costs[best.tobytes()]:
-            best = P
-    c_id = costs[np.eye(3).tobytes()]
-    if not np.array_equal(best, np.eye(3)) and costs[best.tobytes()] < 0.1 * c_id:
+    perms = gates.signed_permutations()  # the identity first
+    costs = tr.permutation_costs(k, b, perms)
+    i = int(np.argmin(np.where(np.isnan(costs), np.inf, costs)))  # the first smallest; a NaN never the best
+    c_id = costs[0]
+    if i != 0 and costs[i] < 0.1 * c_id:
         raise SwappedAxes(
             "the gyroscope axes look swapped or flipped against the accelerometer's: "
-            + gates.describe_permutation(best, "gyroscope", "accelerometer frame")
-            + f" (turn residual {np.sqrt(costs[best.tobytes()] / len(tr.u0)):.2g} vs "
+            + gates.describe_permutation(perms[i], "gyroscope", "accelerometer frame")
+            + f" (turn residual {np.sqrt(costs[i] / len(tr.u0)):.2g} vs "
             f"{np.sqrt(c_id / len(tr.u0)):.2g} as labelled)",
             "fix the column order or signs (--columns or --gyro-columns)",
         )
