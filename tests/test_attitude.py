@@ -1125,7 +1125,7 @@ def test_gravity_means_of_the_input_checks_hold_gravity_still_under_a_known_turn
     h = dts[0] if steps == "one" else dts[:, None]
     q = attitude_update([1.0, 0.0, 0.0, 0.0], gyr * h, coning="none")[1:]  # q_b^i after each sample
     acc = quat_rotate(quat_conjugate(q), np.array([0.0, 0.0, 9.81]))  # gravity's specific force in the body
-    ms, u, nm = gravity_means(gyr, acc, dts, w)
+    ms, u, nm = gravity_means(gyr, acc, dts, w, True)
     assert u.shape == (n - w + 1, 3) and nm.shape == (n - w + 1,)
     np.testing.assert_allclose(nm, 9.81, rtol=1e-12)
     np.testing.assert_allclose(u, np.tile([0.0, 0.0, 1.0], (n - w + 1, 1)), atol=1e-12)
@@ -1134,10 +1134,13 @@ def test_gravity_means_of_the_input_checks_hold_gravity_still_under_a_known_turn
     a_i = quat_rotate(attitude_update([1.0, 0.0, 0.0, 0.0], 1.1 * gyr * h, coning="none")[1:], acc)
     c = np.cumsum(np.vstack([np.zeros(3), a_i]), axis=0)
     m = (c[w:] - c[:-w]) / w
-    ms, u, nm = gravity_means(1.1 * gyr, acc, dts, w)
+    ms, u, nm = gravity_means(1.1 * gyr, acc, dts, w, True)
     np.testing.assert_allclose(nm, np.linalg.norm(m, axis=1), rtol=1e-13)
     np.testing.assert_allclose(u, m / np.linalg.norm(m, axis=1)[:, None], atol=1e-13)
     x = a_i[w // 2 : w // 2 + m.shape[0]]
     cos = np.einsum("ij,ij->i", x, m) / (np.linalg.norm(x, axis=1) * np.linalg.norm(m, axis=1))
     assert ms == pytest.approx(np.mean(np.arccos(np.clip(cos, -1, 1)) ** 2), rel=1e-12)
     assert np.degrees(np.sqrt(ms)) > 0.2  # (0.42°: the per-sample spread the wrong gyro leaves)
+    # without the spread (a scale search's calls): the same means, the spread not computed
+    no_ms, no_u, no_nm = gravity_means(1.1 * gyr, acc, dts, w, False)
+    assert np.isnan(no_ms) and np.array_equal(no_u, u) and np.array_equal(no_nm, nm)

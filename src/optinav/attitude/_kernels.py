@@ -695,13 +695,14 @@ def run_mekf(
 
 
 @numba.njit(**_NJ)
-def gravity_means(gyr, acc, dts, w):
+def gravity_means(gyr, acc, dts, w, spread):
     """The specific force ``acc`` (n, 3) carried into the frame the gyro rates ``gyr`` (n, 3) rad/s integrate to
     from the first sample (steps ``dts`` s: one, or one per sample; a rotation-vector update per sample, no coning
-    term), and its ``w``-sample moving means: their unit vectors (M, 3) and norms (M,), M = n − w + 1, and the mean
-    square angle (rad²) between each sample and the mean of the ``w`` samples centred on it. One pass for the
-    time-base and unit checks of :mod:`optinav.attitude.checks`, which call it thousands of times on short
-    windows, where numpy's per-call overhead was most of the time."""
+    term), and its ``w``-sample moving means: their unit vectors (M, 3) and norms (M,), M = n − w + 1, and, with
+    ``spread``, the mean square angle (rad²) between each sample and the mean of the ``w`` samples centred on it
+    (else NaN: its arc cosine per sample is a third of the time, and most calls, a scale search's, use the means
+    only). One pass for the time-base and unit checks of :mod:`optinav.attitude.checks`, which call it thousands of
+    times on short windows, where numpy's per-call overhead was most of the time."""
     n = gyr.shape[0]
     one = dts.shape[0] == 1
     ai = np.empty((n, 3))
@@ -731,11 +732,13 @@ def gravity_means(gyr, acc, dts, w):
         my = (c1[1] - c0[1]) / w
         mz = (c1[2] - c0[2]) / w
         r = math.sqrt(mx * mx + my * my + mz * mz)
-        x = ai[i + w // 2]
-        cosang = (x[0] * mx + x[1] * my + x[2] * mz) / (math.sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) * r + 1e-300)
-        ss += math.acos(min(max(cosang, -1.0), 1.0)) ** 2
+        if spread:
+            x = ai[i + w // 2]
+            nx = math.sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2])
+            cosang = (x[0] * mx + x[1] * my + x[2] * mz) / (nx * r + 1e-300)
+            ss += math.acos(min(max(cosang, -1.0), 1.0)) ** 2
         nm[i] = r
         u[i, 0] = mx / (r + 1e-300)
         u[i, 1] = my / (r + 1e-300)
         u[i, 2] = mz / (r + 1e-300)
-    return ss / max(m, 1), u, nm
+    return (ss / max(m, 1) if spread else math.nan), u, nm

@@ -263,15 +263,18 @@ def _moving_means(x: np.ndarray, w: int) -> np.ndarray:
     return (c[w:] - c[:-w]) / w
 
 
-def _spreads(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, w: int) -> tuple[float, np.ndarray, np.ndarray]:
-    """The per-sample spread (rad), the unit 2-s means (M, 3) of the specific force carried into the frame the
-    gyro rates ``gyr`` (rad/s) integrate to, and those means' norms (M,) (:func:`_kernels.gravity_means`)."""
+def _spreads(
+    gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, w: int, spread: bool = True
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """The per-sample spread (rad; NaN without ``spread``), the unit 2-s means (M, 3) of the specific force carried
+    into the frame the gyro rates ``gyr`` (rad/s) integrate to, and those means' norms (M,)
+    (:func:`_kernels.gravity_means`)."""
     from optinav.attitude._kernels import gravity_means
 
     def c(x):
         return np.ascontiguousarray(x, dtype=float)
 
-    ms, u, nm = gravity_means(c(gyr), c(acc), c(dts), w)
+    ms, u, nm = gravity_means(c(gyr), c(acc), c(dts), w, spread)
     return float(np.sqrt(ms)), u, nm
 
 
@@ -289,7 +292,13 @@ def _drift(u: np.ndarray) -> float:
 
 
 def _gravity_spread(
-    gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: float, fit_bias: bool = False, span: float = 2.0
+    gyr: np.ndarray,
+    acc: np.ndarray,
+    dts: np.ndarray,
+    scale: float,
+    fit_bias: bool = False,
+    span: float = 2.0,
+    per_sample: bool = True,
 ) -> tuple[float, float, np.ndarray]:
     """How well the gyro (× scale) explains how gravity turns in the body: the RMS angle (rad) between the
     specific force carried into the gyro-integrated frame and its 2-s moving mean, and the RMS angle of those
@@ -297,12 +306,13 @@ def _gravity_spread(
     wandering in the frame by tens of degrees, a right one by the bias's drift). ``fit_bias``: the second is
     taken with the constant bias (at most UNIT_BIAS_MAX, two Gauss–Newton steps from zero) that steadies the
     means most — a bias is no unit error, and a gyro 57× too large cannot be steadied by one. ``span``: the
-    means' length (s) instead of 2 s. Third: the 2-s means' norms (m/s², :func:`_kept_share` judges them)."""
+    means' length (s) instead of 2 s. Third: the 2-s means' norms (m/s², :func:`_kept_share` judges them).
+    Without ``per_sample`` the first is NaN (not computed)."""
     w = _means_window(dts, gyr.shape[0], span)
     g = gyr * scale
-    per_sample, u, nm = _spreads(g, acc, dts, w)
+    spread, u, nm = _spreads(g, acc, dts, w, per_sample)
     if not fit_bias:
-        return per_sample, _drift(u), nm
+        return spread, _drift(u), nm
     b = np.zeros(3)
     eps = 1e-3 * UNIT_BIAS_MAX
     ub = u
@@ -312,14 +322,14 @@ def _gravity_spread(
         for i in range(3):
             db = b.copy()
             db[i] += eps
-            ui = _spreads(g - db, acc, dts, w)[1]
+            ui = _spreads(g - db, acc, dts, w, False)[1]
             J[:, i] = ((ui - ui.mean(axis=0)).ravel() - r0) / eps
         b = b + np.linalg.lstsq(J, -r0, rcond=None)[0]
         nb = float(np.linalg.norm(b))
         if nb > UNIT_BIAS_MAX:
             b *= UNIT_BIAS_MAX / nb
-        ub = _spreads(g - b, acc, dts, w)[1]
-    return per_sample, min(_drift(u), _drift(ub)), nm
+        ub = _spreads(g - b, acc, dts, w, False)[1]
+    return spread, min(_drift(u), _drift(ub)), nm
 
 
 #: the gyro-unit check looks at this many seconds of the recording, where the gyro turns most
@@ -517,7 +527,7 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = F
             # against a gyro too small to turn anything, the declared unit may carry a constant bias (a MEMS
             # gyro's few °/s drift gravity as far as a slow body turns); the tiny alternative gets none (a
             # bias would explain the body's own turning). Against the ×57 alternative a bias cannot help.
-            spread[1.0] = _gravity_spread(g, a, d, 1.0, fit_bias=True)[1]
+            spread[1.0] = _gravity_spread(g, a, d, 1.0, fit_bias=True, per_sample=False)[1]
         if best != 1.0 and spread[1.0] > max(2.0 * spread[best] + 0.02, floor):
             if best == np.pi / 180 and not units_only:
                 # a gyro too small to turn anything explains gravity better than the declared one also when the
@@ -561,7 +571,7 @@ TIME_RATIO = 0.4
 
 
 def _drift_of(g, a, d) -> float:
-    return _gravity_spread(g, a, d, 1.0)[1]
+    return _gravity_spread(g, a, d, 1.0, per_sample=False)[1]
 
 
 def _body_turn(a, d, span: float = 2.0) -> float:
@@ -730,8 +740,8 @@ def _slip_hint(g, a, d) -> UnitHint | None:
     slow = d * TIME_SLIP
     if g.shape[0] * dt * TIME_SLIP < UNIT_MIN_S or dt * TIME_SLIP > 1.0 / RATE_RANGE_HZ[0]:
         return None
-    declared = _gravity_spread(g, a, slow, 1.0 / TIME_SLIP)[1]
-    drift = _gravity_spread(g, a, slow, 1.0, fit_bias=True)[1]
+    declared = _gravity_spread(g, a, slow, 1.0 / TIME_SLIP, per_sample=False)[1]
+    drift = _gravity_spread(g, a, slow, 1.0, fit_bias=True, per_sample=False)[1]
     if not (drift < CONSISTENCY_BAD and drift < TIME_RATIO * declared):
         return None
     return _time_words(TIME_SLIP, dt)
@@ -790,7 +800,7 @@ def _vertical_turns_axes_hint(g, a, d) -> UnitHint | None:
     gravity about x only or by 180° (a flipped axis keeps both ends of such a move)."""
     if _body_turn(a, d) < CONSISTENCY_STILL:
         return None
-    drift1 = _gravity_spread(g, a, d, 1.0, fit_bias=True)[1]
+    drift1 = _gravity_spread(g, a, d, 1.0, fit_bias=True, per_sample=False)[1]
     return _axes_hint(g, a, d, drift1) if drift1 > CONSISTENCY_BAD else None
 
 
@@ -803,7 +813,7 @@ def _time_or_axes_hint(g, a, d, drift1: float) -> UnitHint | None:
         return None  # the declared gyro steadies gravity well, better than 10 % more or less of it
     if _body_turn(a, d) < CONSISTENCY_STILL:
         return None  # gravity hardly turns in the body: nothing to judge by
-    drift1 = _gravity_spread(g, a, d, 1.0, fit_bias=True)[1]
+    drift1 = _gravity_spread(g, a, d, 1.0, fit_bias=True, per_sample=False)[1]
     # a rate 40 % too high steadied gravity within 0.15 rad on fast rotation (BROAD 07: 13.5° with exit 0):
     # the time base is judged also below CONSISTENCY_BAD, against a stricter share
     time = _time_hint(g, a, d, drift1)
@@ -982,7 +992,7 @@ def _long_pieces(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, debia
 def _long_drift(pieces: list[tuple], s: float, fit_bias: bool = False) -> float:
     """RMS over the pieces (weighted by their bins) of gravity's drift (rad) in the frame the gyro × ``s``
     integrates to (:func:`_gravity_spread`, :data:`LONG_MEANS_S`-s means)."""
-    v = [_gravity_spread(g * s, a, T, 1.0, fit_bias, LONG_MEANS_S)[1] ** 2 for g, a, T in pieces]
+    v = [_gravity_spread(g * s, a, T, 1.0, fit_bias, LONG_MEANS_S, False)[1] ** 2 for g, a, T in pieces]
     return float(np.sqrt(np.average(v, weights=[g.shape[0] for g, _, _ in pieces])))
 
 
@@ -1493,7 +1503,7 @@ def inertial_gravity_share(g: np.ndarray, a: np.ndarray, d: np.ndarray) -> float
     w = _means_window(d, g.shape[0])
     if g.shape[0] < 2 * w:
         return float("nan")
-    return _kept_share(_spreads(g, a, d, w)[2], a)
+    return _kept_share(_spreads(g, a, d, w, False)[2], a)
 
 
 def _acc_unit_error(med_a: float, gravity: float = float("nan"), where: str = "") -> OptinavError:
