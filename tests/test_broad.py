@@ -1359,6 +1359,33 @@ def test_a_wrong_rate_on_fast_translation_is_named_from_the_whole_log(rate):
 
 
 @pytest.mark.parametrize(
+    ("name", "factor"),
+    [
+        ("02_undisturbed_slow_rotation_B", 1.05),
+        ("02_undisturbed_slow_rotation_B", 1.0 / 1.05),
+        ("24_disturbed_tapping_A", 1.05),
+        ("29_disturbed_stationary_magnet_B", 1.02),
+    ],
+)
+def test_a_rate_a_few_percent_off_is_named_with_the_rate_the_data_fit(name, factor):
+    """A datasheet's 300 Hz for a device's 285.7 (5 % off) ran with exit 0 at 8.3° inclination RMSE on BROAD 02
+    (0.39° at its rate), 27° heading with the magnetometer on 03, and trial 29 (fast rotation) at 8.5° with its rate
+    2 % off: a factor within 10 % of 1 was no finding. Where the whole log shows it (another factor holds gravity in
+    the gyro-integrated frame at a fifth of the declared drift) it is named with the rate the data fit (to 1 %) and
+    the other cause of a few percent, the gyro's scale; the nine trials at their own rate are not (the trials'
+    fixture runs every one through the checks)."""
+    from optinav.attitude.checks import check_imu
+
+    tr = load_broad(_present(BROAD / f"{name}.{'mat' if name.startswith('29') else 'hdf5'}"))
+    declared = tr.rate_hz * factor
+    with pytest.raises(OptinavError, match="the sample rate or the time column is off by .* or the gyro's scale") as e:
+        check_imu(tr.gyr, tr.acc, np.array([1.0 / declared]))
+    fit = float(e.value.remedy.split("the data fit ")[1].split(" Hz")[0])
+    assert abs(fit / tr.rate_hz - 1) < 0.01, (fit, tr.rate_hz)
+    assert "--rate" in e.value.remedy and "calibration" in e.value.remedy
+
+
+@pytest.mark.parametrize(
     ("name", "rate"),
     [
         ("11_undisturbed_slow_translation_B", 100.0),
