@@ -216,3 +216,32 @@ def test_a_study_draws_the_same_alone_as_among_others(monkeypatch):
     assert np.array_equal(together[2].draws, alone[0].draws)
     assert not np.array_equal(together[0].draws, together[2].draws)
     assert not np.array_equal(alone[0].draws, other_seed[0].draws)
+
+
+def test_a_report_folder_keeps_files_a_report_did_not_write(tmp_path, capsys):
+    """``optinav report RESULT --out DIR`` replaced the user's own index.md and summary.json in DIR with exit 0, and
+    an error named "--report", an option that command has not. A folder holding someone else's report file is
+    refused (exit 2, the file unchanged, naming --out); an earlier report there is replaced."""
+    from optinav.cli.main import main
+
+    s = str(tmp_path)
+    assert main(["--quiet", "simulate", "accel-multipos", "--out", f"{s}/s.csv", "--scheme", "18", "--seed", "3"]) == 0
+    assert main(["--quiet", "calibrate", "accel", f"{s}/s.csv", "--out", f"{s}/r.json"]) == 0
+    for k, (name, text) in enumerate(
+        (("index.md", "my notes\n"), ("summary.json", '{"a": 1}\n'), ("index.html", "x\n"))
+    ):
+        d = tmp_path / f"mine{k}"
+        d.mkdir()
+        (d / name).write_text(text)
+        capsys.readouterr()
+        assert main(["report", f"{s}/r.json", "--out", str(d)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and "is not a file an optinav report writes" in err and "--out" in err, err
+        assert (
+            "--report" not in err and (d / name).read_text() == text and sorted(p.name for p in d.iterdir()) == [name]
+        )
+    d = tmp_path / "again"
+    assert main(["--quiet", "report", f"{s}/r.json", "--out", str(d)]) == 0
+    first = (d / "summary.json").read_text()
+    assert main(["--quiet", "report", f"{s}/r.json", "--out", str(d)]) == 0  # its own earlier report: replaced
+    assert json.loads((d / "summary.json").read_text())["schema"] == json.loads(first)["schema"]

@@ -56,6 +56,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from optinav.cli.common import require_files
+    from optinav.reports.report import report_option
     from optinav.reports.result_report import write_result_reports
 
     require_files(*((r, "result file") for r in args.results), *((d, "--data file") for d in args.data))
@@ -63,6 +64,7 @@ def run(args) -> int:
         raise OptinavError("--rate is the sampling rate of the --data recordings", "give --data, or drop --rate")
     if args.time_unit is not None and not args.data:
         raise OptinavError("--time-unit is the unit of the --data recordings' time", "give --data, or drop --time-unit")
-    written = write_result_reports(args.results, args.out, args.data, args.rate_hz, time_unit=args.time_unit)
+    with report_option("--out"):
+        written = write_result_reports(args.results, args.out, args.data, args.rate_hz, time_unit=args.time_unit)
     print(f"optinav: report written to {written}")
     return 0

@@ -38,6 +38,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from optinav.core.progress import is_quiet, progress_enabled
+    from optinav.reports.report import report_option
 
     names = list(available_studies()) if args.study == "all" else [args.study]
     for name in names:
@@ -50,7 +51,8 @@ def run(args) -> int:
 
     # studies that read real data take the shared data folder, resolved here (the library takes paths)
     results = run_studies(names, quick=args.quick, seed=args.seed, data_dir=shared_data_dir(), announce=announce)
-    out = write_report(results, args.out, title="optinav reproduce" + (" (quick)" if args.quick else ""))
+    with report_option("--out"):
+        out = write_report(results, args.out, title="optinav reproduce" + (" (quick)" if args.quick else ""))
     failed = [f"{r.name}: {c.name}" for r in results for c in r.checks if not c.passed]
     n = sum(len(r.checks) for r in results)
     print(f"optinav: report written to {out}/index.md ({n - len(failed)}/{n} checks passed)")

@@ -8,6 +8,8 @@ tables and writes ``summary.json``, whose quantities are ``{"value": number | li
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import dataclasses
 import html
 import importlib
@@ -378,7 +380,7 @@ def _save_figures(study: StudyResult, out: Path) -> list[tuple[Figure, str | Non
         try:
             f.draw(fig)
             fig.tight_layout()
-            with atomic_path(out / f.filename, "--report") as tmp:
+            with atomic_path(out / f.filename, _OPTION.get()) as tmp:
                 fig.savefig(tmp, dpi=110)
             saved.append((f, f.filename))
         finally:
@@ -386,25 +388,67 @@ def _save_figures(study: StudyResult, out: Path) -> list[tuple[Figure, str | Non
     return saved
 
 
-def check_report_dir(out_dir: str | Path, option: str = "--report") -> Path:
+#: the CLI option that names the report folder in errors: ``--report`` beside a command's output, ``--out`` for
+#: ``optinav report`` and ``reproduce`` (:func:`report_option`)
+_OPTION: contextvars.ContextVar[str] = contextvars.ContextVar("optinav_report_option", default="--report")
+
+
+@contextlib.contextmanager
+def report_option(option: str):
+    """Within the block, the report folder's errors name ``option`` (``"--out"`` for the commands whose output is the
+    report): ``optinav report RESULT --out DIR`` was told to "choose another --report", an option it has not."""
+    token = _OPTION.set(option)
+    try:
+        yield
+    finally:
+        _OPTION.reset(token)
+
+
+def _ours(path: Path) -> bool:
+    """Whether the report file ``path`` (one of :data:`REPORT_FILES`) is one an optinav report wrote."""
+    try:
+        head = path.read_bytes()[:4096].decode("utf-8", "replace")
+    except OSError:
+        return False
+    if path.name == "summary.json":
+        try:
+            return json.loads(path.read_text(encoding="utf-8")).get("schema") == REPORT_SCHEMA
+        except (OSError, ValueError, AttributeError):
+            return False
+    if path.name == "index.html":
+        return head.startswith("<!doctype html><meta charset='utf-8'><title>") and "optinav" in head[:300]
+    return head.startswith("# ") and " by optinav " in "\n".join(head.splitlines()[:3])
+
+
+def check_report_dir(out_dir: str | Path, option: str | None = None) -> Path:
     """Check, without creating anything, that the report folder can be made and written: it is a writable folder,
-    or the nearest folder above it that exists is (so a bad path fails before any work and leaves nothing behind).
+    or the nearest folder above it that exists is (so a bad path fails before any work and leaves nothing behind),
+    and the report files it holds (:data:`REPORT_FILES`) are an optinav report's, which it replaces.
 
     Parameters
     ----------
     out_dir : str or Path
         The report folder; :func:`prepare_report_dir` makes it when the report is written.
-    option : str
-        The CLI option that names it, for the remedy of an error.
+    option : str or None
+        The CLI option that names it, for the remedy of an error (None: :func:`report_option`'s, ``--report``).
 
     Returns
     -------
     Path
         ``out_dir``, unchanged.
     """
+    option = option or _OPTION.get()
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise OptinavError(f"the report folder {out} is a file", f"choose another {option}")
+    for name in REPORT_FILES if out.is_dir() else ():
+        f = out / name
+        if (f.exists() or f.is_symlink()) and not (f.is_file() and _ours(f)):
+            # a folder of the user's own notes lost its index.md and summary.json to a report with exit 0
+            raise OptinavError(
+                f"{f} exists and is not a file an optinav report writes: the report would replace it",
+                f"choose another {option} (an empty or new folder, or one holding an earlier report)",
+            )
     up = out
     while not up.exists() and up != up.parent:
         up = up.parent
@@ -442,9 +486,10 @@ def report_writes(out_dir: str | Path, path: str | Path) -> bool:
     return p.name in REPORT_FILES or p.suffix.lower() == ".png"
 
 
-def prepare_report_dir(out_dir: str | Path, option: str = "--report") -> Path:
+def prepare_report_dir(out_dir: str | Path, option: str | None = None) -> Path:
     """Create the report folder and check it is writable (when the report is written; :func:`check_report_dir`
     checks the path before the work)."""
+    option = option or _OPTION.get()
     out = check_report_dir(out_dir, option)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -563,7 +608,8 @@ def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str 
                 for t in r.tables
             ],
         }
-    write_text(out / "index.md", "\n".join(md) + "\n", "--report")
-    write_text(out / "index.html", "\n".join(h) + "\n", "--report")
-    write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n", "--report")
+    option = _OPTION.get()
+    write_text(out / "index.md", "\n".join(md) + "\n", option)
+    write_text(out / "index.html", "\n".join(h) + "\n", option)
+    write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n", option)
     return out
