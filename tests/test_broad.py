@@ -776,6 +776,10 @@ def test_broad_layout_files_as_users_make_them(tmp_path, capsys):
     assert code == 2 and "--time-unit" in err[-1]
     code, err = run(p, "--rate", "100")
     assert code == 2 and "sampling_rate" in err[-1] and "drop --rate" in err[-1]
+    # the file's rate typed to its printed digits is the file's rate (was refused as "states 285.714 Hz, --rate
+    # says 285.714")
+    code, got = run(p, "--reference", "--rate", "285.714")
+    assert code == 0 and [x for x in got if "inclination RMSE" in x] == [x for x in ref if "inclination RMSE" in x]
 
 
 def test_a_gyro_logged_in_whole_deg_s_is_not_taken_for_clipped():

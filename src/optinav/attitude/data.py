@@ -131,9 +131,11 @@ def broad_units(name: str, attrs, options=None, file_rate=None) -> tuple[float, 
     given = None if o is None else getattr(o, "rate_hz", None)
     if file_rate is not None and given is not None:
         fr = _broad_rate(file_rate, name)
-        if abs(fr - float(given)) > 1e-9 * fr:
+        from optinav.io.imu import RATE_AGREE  # a rate typed to its printed digits is the file's
+
+        if abs(fr - float(given)) > RATE_AGREE * fr:
             raise OptinavError(
-                f"{name} states sampling_rate {fr:.6g} Hz, --rate says {float(given):.6g}", "drop --rate"
+                f"{name} states sampling_rate {fr:.10g} Hz, --rate says {float(given):.10g}", "drop --rate"
             )
     rate = _broad_rate(file_rate if file_rate is not None else given, name)
     out = []
