@@ -427,10 +427,43 @@ def _other_outputs(args) -> list[tuple[str, str]]:
     return found
 
 
+#: the warnings and notes said on the console by the command running (kind, message): its --report keeps them
+_SAID: list[tuple[str, str]] = []
+
+
+def forget_said() -> None:
+    """Start a command's record of what it said (:func:`said`)."""
+    _SAID.clear()
+
+
+def said() -> list[tuple[str, str]]:
+    """The (kind, message) of every warning and note the running command has said on stderr, in order."""
+    return list(_SAID)
+
+
+def say(kind: str, message: str) -> None:
+    """``optinav: KIND: MESSAGE`` on stderr, one line, kept for the command's report (:func:`said`)."""
+    import sys
+
+    from optinav.cli.main import cli_wording
+
+    text = cli_wording(" ".join(str(message).split()))
+    _SAID.append((kind, text))
+    try:
+        print(f"optinav: {kind}: {text}", file=sys.stderr)
+    except OSError:  # stderr closed (a pipe to `head`): the warning is lost, as with Python's own showwarning;
+        pass  # a batch unit failed "internal error: BrokenPipeError" and was journaled so
+
+
 def finish_report(args, write) -> None:
-    """``write(folder) -> path`` the report when ``--report`` was given, and say where it is."""
+    """``write(folder) -> path`` the report when ``--report`` was given, with the warnings and notes said on the
+    console before it (:func:`optinav.cli.main.said`), and say where it is."""
     if args.report:
-        print(f"optinav: report written to {write(args.report)}/index.md")
+        from optinav.reports.report import console_said
+
+        with console_said(said()):
+            where = write(args.report)
+        print(f"optinav: report written to {where}/index.md")
 
 
 class ReaderNotes:
@@ -451,8 +484,6 @@ class ReaderNotes:
 
 
 def print_notes(notes) -> None:
-    """Each note on stderr as ``optinav: note: …``."""
-    import sys
-
+    """Each note on stderr as ``optinav: note: …`` (kept for the command's report)."""
     for note in notes:
-        print(f"optinav: note: {note}", file=sys.stderr)
+        say("note", note)

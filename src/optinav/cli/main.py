@@ -135,7 +135,10 @@ def _dispatch(args) -> int:
     from optinav.core.progress import compile_note, task
 
     # commands that take seconds name a task; their steps (core.progress.step) advance its bar on a terminal
+    from optinav.cli.common import forget_said
+
     label = getattr(args, "progress_task", None)
+    forget_said()
     try:
         with (
             protect_inputs(_input_paths(args)),
@@ -270,11 +273,9 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
     :class:`optinav.errors.Note` as a note."""
     from optinav.errors import Note
 
-    kind = "note" if isinstance(category, type) and issubclass(category, Note) else "warning"
-    try:
-        print(f"optinav: {kind}: {cli_wording(' '.join(str(message).split()))}", file=sys.stderr)
-    except OSError:  # stderr closed (a pipe to `head`): the warning is lost, as with Python's own showwarning;
-        pass  # a batch unit failed "internal error: BrokenPipeError" and was journaled so
+    from optinav.cli.common import say
+
+    say("note" if isinstance(category, type) and issubclass(category, Note) else "warning", str(message))
 
 
 #: options that name what a command writes, never what it reads

@@ -404,6 +404,22 @@ def report_option(option: str):
         _OPTION.reset(token)
 
 
+#: the warnings and notes the command said on the console before its report, (kind, message) each: the report
+#: keeps them (a reader of BROAD 02's report alone did not see the console's warning that its frame is ENU)
+_CONSOLE: contextvars.ContextVar[tuple] = contextvars.ContextVar("optinav_console", default=())
+
+
+@contextlib.contextmanager
+def console_said(messages):
+    """Within the block, :func:`write_report` adds ``messages`` ((kind, text) each) as a section of the report and
+    ``console`` in summary.json."""
+    token = _CONSOLE.set(tuple((str(k), str(m)) for k, m in messages))
+    try:
+        yield
+    finally:
+        _CONSOLE.reset(token)
+
+
 def _ours(path: Path) -> bool:
     """Whether the report file ``path`` (one of :data:`REPORT_FILES`) is one an optinav report wrote."""
     try:
@@ -535,6 +551,13 @@ def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str 
         hmd, hh = _headline(results)
         md += hmd
         h += hh
+    console = _CONSOLE.get()
+    if console:
+        md += ["## Warnings and notes", "", *(f"- **{k}**: {_md(m)}" for k, m in console), ""]
+        h += ["<h2>Warnings and notes</h2>", "<ul>"]
+        h += [f"<li><b>{html.escape(k)}</b>: {html.escape(m)}</li>" for k, m in console]
+        h.append("</ul>")
+        summary["console"] = [{"kind": k, "message": m} for k, m in console]
     for r in results:
         took = f", {r.elapsed:.1f} s" if r.elapsed > 0 else ""  # 0: not timed (a report of a result), not "0.0 s"
         md += [f"## {r.title}", "", r.description, "", f"_Study `{r.name}`{took}._", ""]
