@@ -53,7 +53,7 @@ from typing import NamedTuple
 import numpy as np
 
 from optinav.core.files import RESULT_MARK, atomic_open, atomic_path, check_output, check_replace, describe, os_error
-from optinav.errors import OptinavError
+from optinav.errors import Note, OptinavError
 
 JOURNAL_SCHEMA = "optinav.batch_journal"
 JOURNAL_VERSION = 1
@@ -406,6 +406,21 @@ def result_columns(res) -> dict:
     return row
 
 
+def _keep_warnings(row: dict, heard: list) -> None:
+    """The warnings a unit raised (``heard``: :func:`warnings.catch_warnings` records), shown as the batch shows
+    warnings with the unit's name in front and kept in its row's ``notes``: on stderr they named no unit (four
+    frame warnings over a folder of BROAD trials, from which files?), and the table and its journal kept none, so a
+    resumed batch lost them."""
+    kept = []
+    for w in heard:
+        text = " ".join(str(w.message).split())
+        warnings.showwarning(f"{row['unit']}: {text}", w.category, w.filename, w.lineno)
+        if text not in (row.get("notes") or ""):  # (a result's own notes are there already)
+            kept.append(f"{'note' if issubclass(w.category, Note) else 'warning'}: {text}")
+    if kept:
+        row["notes"] = " | ".join([n for n in [row.get("notes") or ""] if n] + kept)
+
+
 def truth_columns(res, path: Path) -> dict:
     """``NAME_error`` (estimate − truth) for every parameter the unit's ``STEM.truth.json`` and the result share
     (``NAME_rmse`` for a time series), and ``truth_max_z`` (the largest |error|/std); nothing when there is no
@@ -466,30 +481,32 @@ def calibrate_unit(path: str, job, name: str = "") -> dict:
         "method": getattr(job.options, "method", None),
     }
     start = time.perf_counter()
-    try:
-        res, extra = SYSTEMS[job.system].load("run_unit")(p, job.options, job.reference)
-        row.update({k: _cell(v) for k, v in extra.items()})
-        row.update(result_columns(res))
-        row.update(status="ok", error="")
-        if job.results_dir is not None:
-            rp = Path(job.results_dir) / f"{name or p.name}.json"
-            res.to_json(rp)  # atomic: a killed worker leaves the old file or none
-            row["result_file"] = rp.name
-            row["result_sha"] = _file_sha(rp)  # a resume takes the file only if it is still this one
-        if job.reference:
-            row.update(truth_columns(res, p))
-            z = row.get("truth_max_z")
-            if z is not None and z > MAX_TRUTH_Z:  # scored against the truth: an error the std did not cover
-                row.update(
-                    status="failed",
-                    error=f"the result is {z:.3g} std from the simulated truth (beyond {MAX_TRUTH_Z:g}): an error its "
-                    "std and gates missed",
-                )
-    except OptinavError as exc:
-        row.update(status="failed", error=str(exc))
-    except Exception as exc:  # noqa: BLE001 - a unit's crash is its row, not the batch's end
-        msg = " ".join(str(exc).split()) or type(exc).__name__
-        row.update(status="failed", error=f"internal error: {type(exc).__name__}: {msg}")
+    with warnings.catch_warnings(record=True) as heard:  # the unit's warnings go into its row
+        try:
+            res, extra = SYSTEMS[job.system].load("run_unit")(p, job.options, job.reference)
+            row.update({k: _cell(v) for k, v in extra.items()})
+            row.update(result_columns(res))
+            row.update(status="ok", error="")
+            if job.results_dir is not None:
+                rp = Path(job.results_dir) / f"{name or p.name}.json"
+                res.to_json(rp)  # atomic: a killed worker leaves the old file or none
+                row["result_file"] = rp.name
+                row["result_sha"] = _file_sha(rp)  # a resume takes the file only if it is still this one
+            if job.reference:
+                row.update(truth_columns(res, p))
+                z = row.get("truth_max_z")
+                if z is not None and z > MAX_TRUTH_Z:  # scored against the truth: an error the std did not cover
+                    row.update(
+                        status="failed",
+                        error=f"the result is {z:.3g} std from the simulated truth (beyond {MAX_TRUTH_Z:g}): an error its "
+                        "std and gates missed",
+                    )
+        except OptinavError as exc:
+            row.update(status="failed", error=str(exc))
+        except Exception as exc:  # noqa: BLE001 - a unit's crash is its row, not the batch's end
+            msg = " ".join(str(exc).split()) or type(exc).__name__
+            row.update(status="failed", error=f"internal error: {type(exc).__name__}: {msg}")
+    _keep_warnings(row, heard)
     row["elapsed_s"] = time.perf_counter() - start
     row["finished_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
     return row
