@@ -531,6 +531,33 @@ def test_an_uncalibrated_magnetometer_on_a_streamed_file(tmp_path, capsys):
     )
 
 
+def test_a_batch_names_the_unit_of_each_warning_and_keeps_it_in_its_row(tmp_path, capsys):
+    """``optinav batch attitude`` over BROAD trials in the default frame (NED): four frame warnings went to stderr
+    naming no unit, and neither the table nor its journal kept them (a resumed batch lost them). Each warning now
+    starts with its unit's name and is in that row's ``notes``, also when the row is resumed from the journal."""
+    from optinav.batch import read_results
+    from optinav.cli.main import main
+
+    tr = load_broad(PATH)
+    d = tmp_path / "units"
+    d.mkdir()
+    for name, k in (("a", 12000), ("b", 9000)):
+        rows = np.column_stack([np.arange(k) * tr.dt, tr.gyr[:k], tr.acc[:k]])
+        np.savetxt(d / f"{name}.csv", rows, delimiter=",", header="t,gx,gy,gz,ax,ay,az", comments="", fmt="%.9g")
+    out = tmp_path / "b.csv"
+    argv = ["batch", "attitude", str(d), "--workers", "0", "--out", str(out)]
+    assert main(argv) == 0
+    said = [x for x in capsys.readouterr().err.splitlines() if x.startswith("optinav: warning:")]
+    assert sorted(x.split(": ")[2] for x in said) == ["a", "b"] and all("--frame ENU" in x for x in said), said
+    for again in (False, True):  # the second run resumes both rows from the journal
+        if again:
+            assert main(argv) == 0
+        got = {r["unit"]: r for r in read_results(out)}
+        for unit in "ab":
+            text = next(x for x in said if x.startswith(f"optinav: warning: {unit}: ")).split(f"{unit}: ", 1)[1]
+            assert got[unit]["notes"] == f"warning: {text}", got[unit]["notes"]
+
+
 def test_a_batch_row_says_the_hard_iron_offset_and_from_which_sample(tmp_path):
     """``optinav batch attitude --mag`` on an uncalibrated magnetometer (trial 02's first 40 000 rows, +30 µT on x):
     the row said nothing of the offset subtracted nor that the heading was the gyro's until the online fit passed
@@ -1842,6 +1869,26 @@ def test_the_report_draws_the_error_against_the_reference(tmp_path, monkeypatch,
         assert np.count_nonzero(np.isfinite(y)) == 32280  # the movement samples with a valid reference
         want = rows[f"{name} RMSE vs reference [deg]"]
         np.testing.assert_allclose(np.sqrt(np.nanmean(y**2)), want, rtol=1e-9)
+
+
+@pytest.mark.parametrize("chunk", [None, "7000"])
+def test_the_report_keeps_the_warnings_said_on_the_console(tmp_path, capsys, chunk):
+    """Trial 02 in the default frame (NED): the console warned that its accelerometer reads an up-pointing z and
+    named --frame ENU, but --report's index.md, index.html and summary.json did not, so a reader of the report
+    alone had no hint. They keep every warning and note the command said, in its words."""
+    import json
+
+    from optinav.cli.main import main
+
+    rep = tmp_path / "rep"
+    argv = ["attitude", str(PATH), "--reference", "--out", str(tmp_path / "a.csv"), "--report", str(rep)]
+    assert main(argv + (["--chunk-rows", chunk] if chunk else [])) == 0
+    said = [x for x in capsys.readouterr().err.splitlines() if x.startswith("optinav: warning:")]
+    assert len(said) == 1 and "--frame ENU" in said[0]
+    text = said[0].removeprefix("optinav: warning: ")
+    md, page = (rep / "index.md").read_text(), (rep / "index.html").read_text()
+    assert "## Warnings and notes" in md and text in md and "Warnings and notes" in page and "--frame ENU" in page
+    assert json.loads((rep / "summary.json").read_text())["console"] == [{"kind": "warning", "message": text}]
 
 
 def test_the_reference_line_says_when_the_heading_is_not_measured(tmp_path, capsys):
