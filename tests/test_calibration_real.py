@@ -294,6 +294,13 @@ def test_apply_refuses_the_session_with_its_accelerometer_x_negated(tmp_path, ca
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "does not explain how gravity turns" in err and "--columns" in err, err
     assert not out.exists()
+    # the accelerometer's y negated: the triad with fewer axes off is named first (it was only "gyro x reads -x,
+    # gyro z reads -z" and the gyro's columns to fix, a mirror image of the right fix)
+    bad = _negated_session(tmp_path, "acc_y")
+    assert main(["--quiet", "apply", str(cal), str(bad), "--rate", "102.4", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "accelerometer y reads -y" in err, err
+    assert "of the accelerometer's (--columns t,ax,-ay,az,gx,gy,gz), or if that triad is right, of the gyro's" in err
     plain = DATA / "example_ferraris_session.csv"
     assert main(["--quiet", "apply", str(cal), str(plain), "--rate", "102.4", "--out", str(out)]) == 0
     got = _read_out(out)

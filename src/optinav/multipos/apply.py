@@ -221,7 +221,7 @@ def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
     corrected by the calibration as the alternatives, for a calibration of counts the raw gyro read as deg/s and
     rad/s; silent when too little turns): a log in rad/s corrected by a calibration made for deg/s read 57 times
     too small with exit 0 (the calibration's bias, in its own unit, is no multiple of the data's)."""
-    from optinav.attitude.checks import gyro_unit_hint
+    from optinav.attitude.checks import gyro_unit_hint, unit_error
 
     if log.t is None or log.t.size < 3:
         return
@@ -259,10 +259,13 @@ def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
     parts = [slice(0, n)] + ([] if hint else [slice(k * n // 4, (k + 1) * n // 4) for k in range(4)])
     axes = next((w for w in (axes_in(sl) for sl in parts if sl.stop - sl.start >= 16) if w is not None), None)
     if axes is not None:
+        # which triad is off, as the attitude checks word it: the session with its accelerometer's y negated was told
+        # "gyro x reads -x, gyro z reads -z", and to fix the gyro's columns (a mirror image gravity cannot tell)
+        named = unit_error(axes, "rad/s")
         raise OptinavError(
             f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain "
-            f"how gravity turns in the body: {axes.words}",
-            "fix the column order or signs (--columns), or apply the calibration of this sensor",
+            f"how gravity turns in the body: {named.cause}",
+            f"{named.remedy}; or apply the calibration of this sensor",
         )
     if hint:
         unit = "deg/s" if hint.scale < 1.0 else "rad/s"
