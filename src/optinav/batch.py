@@ -53,7 +53,7 @@ from typing import NamedTuple
 import numpy as np
 
 from optinav.core.files import RESULT_MARK, atomic_open, atomic_path, check_output, check_replace, describe, os_error
-from optinav.errors import Note, OptinavError
+from optinav.errors import OptinavError, message_kind
 
 JOURNAL_SCHEMA = "optinav.batch_journal"
 JOURNAL_VERSION = 1
@@ -416,9 +416,9 @@ def _keep_warnings(row: dict, heard: list) -> None:
         text = " ".join(str(w.message).split())
         warnings.showwarning(f"{row['unit']}: {text}", w.category, w.filename, w.lineno)
         if text not in (row.get("notes") or ""):  # (a result's own notes are there already)
-            kept.append(f"{'note' if issubclass(w.category, Note) else 'warning'}: {text}")
+            kept.append(f"{message_kind(w.category)}: {text}")
     if kept:
-        row["notes"] = " | ".join([n for n in [row.get("notes") or ""] if n] + kept)
+        row["notes"] = " | ".join(filter(None, [row.get("notes"), *kept]))
 
 
 def truth_columns(res, path: Path) -> dict:

@@ -23,3 +23,8 @@ class SwappedAxes(OptinavError):
 class Note(UserWarning):
     """Something a reader or a step did that the user should know (a line left out, a rate taken from the time
     column): shown by the CLI as ``optinav: note: …``; from Python, an ordinary warning that can be filtered."""
+
+
+def message_kind(category) -> str:
+    """How the CLI names a warning of ``category``: ``"note"`` for a :class:`Note`, else ``"warning"``."""
+    return "note" if isinstance(category, type) and issubclass(category, Note) else "warning"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from pathlib import Path
 
 from optinav.errors import OptinavError
@@ -427,6 +428,26 @@ def _other_outputs(args) -> list[tuple[str, str]]:
     return found
 
 
+#: the library's keyword arguments named in its messages, as the command line spells them
+_FLAGS = {
+    "rate_hz": "--rate",
+    "time_unit": "--time-unit",
+    "acc_unit": "--acc-unit",
+    "gyro_unit": "--gyro-unit",
+    "gyro_columns": "--gyro-columns",
+    "gyro_path": "--gyro",
+    "mag_columns": "--mag-columns",
+    "columns": "--columns",
+    "delimiter": "--delimiter",
+}
+_KEYWORD = re.compile(r"(?<![\w-])(" + "|".join(_FLAGS) + r")=")
+
+
+def cli_wording(message: str) -> str:
+    """A library message as the command line's user reads it: ``time_unit=...`` → ``--time-unit ...``."""
+    return _KEYWORD.sub(lambda m: _FLAGS[m.group(1)] + " ", message)
+
+
 #: the warnings and notes said on the console by the command running (kind, message): its --report keeps them
 _SAID: list[tuple[str, str]] = []
 
@@ -445,8 +466,6 @@ def say(kind: str, message: str) -> None:
     """``optinav: KIND: MESSAGE`` on stderr, one line, kept for the command's report (:func:`said`)."""
     import sys
 
-    from optinav.cli.main import cli_wording
-
     text = cli_wording(" ".join(str(message).split()))
     _SAID.append((kind, text))
     try:
@@ -457,7 +476,7 @@ def say(kind: str, message: str) -> None:
 
 def finish_report(args, write) -> None:
     """``write(folder) -> path`` the report when ``--report`` was given, with the warnings and notes said on the
-    console before it (:func:`optinav.cli.main.said`), and say where it is."""
+    console before it (:func:`said`), and say where it is."""
     if args.report:
         from optinav.reports.report import console_said
 

@@ -18,13 +18,13 @@ import errno
 import functools
 import io
 import os
-import re
 import sys
 import textwrap
 import warnings
 
 from optinav import __version__
-from optinav.errors import OptinavError
+from optinav.cli.common import cli_wording
+from optinav.errors import OptinavError, message_kind
 
 #: stands in :data:`COMMANDS` for the systems' own top-level commands (``attitude``, ``gfimu``): the
 #: ``register_commands(subparsers)`` hook of each system's CLI module in :mod:`optinav.registry`
@@ -134,9 +134,9 @@ def _dispatch(args) -> int:
     from optinav.core.files import protect_inputs
     from optinav.core.progress import compile_note, task
 
-    # commands that take seconds name a task; their steps (core.progress.step) advance its bar on a terminal
     from optinav.cli.common import forget_said
 
+    # commands that take seconds name a task; their steps (core.progress.step) advance its bar on a terminal
     label = getattr(args, "progress_task", None)
     forget_said()
     try:
@@ -248,34 +248,12 @@ def _to_null(fd: int) -> None:
             os.close(devnull)
 
 
-#: the library's keyword arguments named in its messages, as the command line spells them
-_FLAGS = {
-    "rate_hz": "--rate",
-    "time_unit": "--time-unit",
-    "acc_unit": "--acc-unit",
-    "gyro_unit": "--gyro-unit",
-    "gyro_columns": "--gyro-columns",
-    "gyro_path": "--gyro",
-    "mag_columns": "--mag-columns",
-    "columns": "--columns",
-    "delimiter": "--delimiter",
-}
-_KEYWORD = re.compile(r"(?<![\w-])(" + "|".join(_FLAGS) + r")=")
-
-
-def cli_wording(message: str) -> str:
-    """A library message as the command line's user reads it: ``time_unit=...`` → ``--time-unit ...``."""
-    return _KEYWORD.sub(lambda m: _FLAGS[m.group(1)] + " ", message)
-
-
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """CLI users get a warning as one line like the errors, not Python's file:line and source echo; a
     :class:`optinav.errors.Note` as a note."""
-    from optinav.errors import Note
-
     from optinav.cli.common import say
 
-    say("note" if isinstance(category, type) and issubclass(category, Note) else "warning", str(message))
+    say(message_kind(category), str(message))
 
 
 #: options that name what a command writes, never what it reads

@@ -423,14 +423,15 @@ def console_said(messages):
 def _ours(path: Path) -> bool:
     """Whether the report file ``path`` (one of :data:`REPORT_FILES`) is one an optinav report wrote."""
     try:
-        head = path.read_bytes()[:4096].decode("utf-8", "replace")
+        text = path.read_bytes().decode("utf-8", "replace")
     except OSError:
         return False
     if path.name == "summary.json":
         try:
-            return json.loads(path.read_text(encoding="utf-8")).get("schema") == REPORT_SCHEMA
-        except (OSError, ValueError, AttributeError):
+            return json.loads(text).get("schema") == REPORT_SCHEMA
+        except (ValueError, AttributeError):
             return False
+    head = text[:4096]
     if path.name == "index.html":
         return head.startswith("<!doctype html><meta charset='utf-8'><title>") and "optinav" in head[:300]
     return head.startswith("# ") and " by optinav " in "\n".join(head.splitlines()[:3])
