@@ -200,6 +200,23 @@ def test_stall_tolerance_stops_early(method):
     assert np.all(h[10:-1] < (1 - 1e-3) * h[:-11])  # ... and nowhere before
 
 
+@pytest.mark.parametrize("method", ["pso", "ga"])
+def test_a_search_stopped_early_reports_how_far_it_is_from_the_minimum(method):
+    """Five generations on a linear least-squares problem stop short of the minimum; ``x + shortfall`` is the
+    minimum (exact here: a local least-squares search from x solves a linear problem), which the search's own
+    result does not show. A local method has no shortfall."""
+    rng = np.random.default_rng(3)
+    A = rng.standard_normal((20, 3))
+    y = A @ [1.0, -2.0, 0.5] + 0.01 * rng.standard_normal(20)
+    xstar = np.linalg.lstsq(A, y, rcond=None)[0]
+    pr = Problem(lambda x: A @ x - y, np.zeros(3), residuals_batch=lambda X: X @ A.T - y, search_interval=(-3, 3))
+    r = minimize(pr, method, rng=0, generations=5)
+    assert np.abs(r.x - xstar).max() > 1e-3
+    np.testing.assert_allclose(r.x + r.shortfall, xstar, atol=1e-8)
+    assert minimize(pr, "lm").shortfall is None
+    assert OptimizeResult.from_json(r.to_json()).shortfall.tolist() == r.shortfall.tolist()
+
+
 def test_evaluation_count_pso_is_exact():
     # x0 check (1) + initial swarm (N) + N per generation + residuals at the solution for the final Jacobian (1)
     pr = Problem(_rosen_res, [0.0, 0.0], jacobian=_rosen_jac, bounds=(-2, 2))

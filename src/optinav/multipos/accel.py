@@ -26,7 +26,7 @@ from dataclasses import field
 import numpy as np
 
 from optinav.core.observability import ObservabilityReport, analyze
-from optinav.core.optimize import Problem, minimize
+from optinav.core.optimize import Problem, minimize, shortfall_note
 from optinav.core.results import Result
 from optinav.core.validate import as_float_array, check_positive
 from optinav.errors import OptinavError
@@ -422,6 +422,11 @@ def fit_accel(
     # variance factor χ²/dof (never below 1; the χ² the held terms explain is not counted twice) carries it.
     std = crlb * np.sqrt(max(1.0, chi2 / (dof + extra_chi2))) if dof > 0 else crlb.copy()
     std[free] = np.sqrt(std[free] ** 2 + add_var)
+    message = str(res.message)
+    if res.shortfall is not None:
+        # where the search stopped short of its objective's minimum the noise std does not reach (GA, PSO)
+        message += "; " + shortfall_note(res.shortfall, std[free], problem.param_names)
+        std[free] = np.hypot(std[free], res.shortfall)
     if bias_instability is not None:
         # a drift common to all poses moves b without leaving a residual: only a noise model can bound it
         std[6:9] = np.hypot(std[6:9], np.broadcast_to(np.abs(as_float_array(bias_instability, "bias_instability")), 3))
@@ -444,7 +449,7 @@ def fit_accel(
         crlb_std=crlb,
         observability=rep,
         success=bool(res.success),
-        message=str(res.message),
+        message=message,
         nfev=int(res.nfev),
         nit=int(res.nit),
         history=np.asarray(res.history, float),

@@ -38,7 +38,7 @@ import numpy as np
 
 from optinav.core import earth as _earth
 from optinav.core.observability import analyze, format_combination, rref
-from optinav.core.optimize import Problem, minimize
+from optinav.core.optimize import Problem, minimize, shortfall_note
 from optinav.core.results import (
     Estimate,
     InvalidResult,
@@ -1042,15 +1042,6 @@ def calibrate(
     gates = []
     if method != "none":
         gates = _quality_gates(method, p, V, C, cnames, res if method in ("lm", "pso") else None, e_after, prep)
-    if method in ("lm", "pso"):
-        conv = convergence(
-            res.success if method == "lm" else None,
-            iterations=getattr(res, "nit", None),
-            evaluations=res.nfev,
-            message=res.message,
-        )
-    else:
-        conv = convergence(None, message="closed form" if method == "axis" else "not estimated")
     # uncertainty on the observable subspace (white-noise CRLB inflated by the residual correlation time)
     J = residual_jacobian(prep.c_s_n, prep.alpha, prep.beta, p)
     r = e_after.ravel()
@@ -1061,7 +1052,11 @@ def calibrate(
     cov_sys = (
         _systematic_cov(prep, p, V, J @ V, r, gyro_misalignment, gyro_scale) if method != "none" else np.zeros((6, 6))
     )
-    cov = cov_noise + cov_sys
+    d = np.zeros(6)
+    if method == "pso" and res.shortfall is not None:
+        # where the swarm stopped short of its objective's minimum, on the observable combinations (gauge-fixed)
+        d = gauge_fixed(p_raw + res.shortfall, rep0.null_space) - p
+    cov = cov_noise + cov_sys + np.outer(d, d)
     combos, angles, stds = [], {}, {}
     for c, nm in zip(C, cnames):
         sd = float(np.sqrt(max(c @ cov @ c, 0.0)))
@@ -1074,8 +1069,24 @@ def calibrate(
                 "std_noise": float(np.sqrt(max(c @ cov_noise @ c, 0.0))),
                 "std_gyro_errors": float(np.sqrt(max(c @ cov_sys @ c, 0.0))),
                 "crlb_std": float(np.sqrt(max(c @ np.asarray(rep.crlb) @ c, 0.0))),
+                **({"std_search": float(abs(c @ d))} if d.any() else {}),
             }
         )
+    if method in ("lm", "pso"):
+        message = res.message
+        if d.any():
+            short = [x["std_search"] for x in combos]
+            message += "; " + shortfall_note(
+                short, [np.hypot(x["std_noise"], x["std_gyro_errors"]) for x in combos], cnames
+            )
+        conv = convergence(
+            res.success if method == "lm" else None,
+            iterations=getattr(res, "nit", None),
+            evaluations=res.nfev,
+            message=message,
+        )
+    else:
+        conv = convergence(None, message="closed form" if method == "axis" else "not estimated")
     for i, nm in enumerate(PARAM_NAMES):
         ok = bool(rep0.observable[i]) and method != "none"
         angles[nm] = float(p[i]) if ok else None

@@ -8,7 +8,7 @@ GA with Srinivas–Patnaik probabilities; fitness 1/E). Results are :class:`Opti
 (schema ``optinav.optimize_result``) with the per-iteration best cost in ``history``.
 """
 
-from .api import METHODS, method_options, minimize
+from .api import METHODS, method_options, minimize, shortfall_note
 from .ga import adaptive_probability, fitness
 from .problem import OptimizeResult, Problem
 from .pso import pso_velocity
@@ -22,4 +22,5 @@ __all__ = [
     "method_options",
     "minimize",
     "pso_velocity",
+    "shortfall_note",
 ]

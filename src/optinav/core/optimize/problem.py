@@ -257,6 +257,10 @@ class OptimizeResult(Result):
     options: dict = field(default_factory=dict, metadata={"unit": "-"})
     #: per-generation traces of the population methods: ``mean_cost`` (G+1,) and ``best_x`` (G+1, n)
     trace: dict = field(default_factory=dict, metadata={"unit": "-"})
+    #: population methods on least squares: the step from ``x`` to the minimum a local least-squares search
+    #: started at ``x`` finds on the same problem (zeros where it finds no lower cost), i.e. how far the search
+    #: stopped short of its objective's minimum; None for local methods or where not measured
+    shortfall: np.ndarray | None = field(default=None, metadata={"unit": "parameter units"})
 
 
 class Evaluator:
