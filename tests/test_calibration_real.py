@@ -1157,7 +1157,7 @@ def test_attitude_of_raw_counts_by_a_wrong_sensitivity_names_it(tmp_path, capsys
     assert main([*argv, "--gyro-lsb", "16.4"]) == 0
 
 
-def test_a_swarm_that_stopped_short_of_its_minimum_says_so_and_its_std_covers_it(tmp_path):
+def test_a_swarm_that_stopped_short_of_its_minimum_says_so_and_its_std_covers_it(tmp_path, capsys):
     """The accelerometer by PSO at 3, 10 and its default 150 generations: the swarm stopped 1.3–1.5 noise std short
     of the minimum of its own objective (unweighted pose means, the one Newton's method minimizes here), with
     "converged" and exit 0, its parameters up to 1.5 std from LM's. The shortfall, which the swarm's spread does
@@ -1174,6 +1174,7 @@ def test_a_swarm_that_stopped_short_of_its_minimum_says_so_and_its_std_covers_it
     for g in ("3", "10", "150"):
         theta, std, message = fit("--method", "pso", "--generations", g)
         assert "std short of its objective's minimum on" in message and "(added to the std)" in message
+        assert "note: the PSO search stopped" in capsys.readouterr().err
         # Newton's minimum differs from the swarm's by its shortfall, which the std now holds
         assert np.all(np.abs(newton - theta) <= std * (1 + 1e-6)), (g, np.abs(newton - theta) / std)
         assert np.all(np.abs(lm - theta) < std), (g, np.abs(lm - theta) / std)

@@ -230,6 +230,8 @@ class AccelFit(Result):
     n_distinct: int = field(default=0, metadata={"unit": ""})
     #: why parameters were held, when the model was reduced automatically ("" otherwise)
     note: str = field(default="", metadata={"unit": "-"})
+    #: GA/PSO: how far the search stopped short of its objective's minimum, in std (also in ``message``; "" otherwise)
+    search_note: str = field(default="", metadata={"unit": "-"})
 
 
 def _observability(J, sigma, free) -> ObservabilityReport:
@@ -422,10 +424,10 @@ def fit_accel(
     # variance factor χ²/dof (never below 1; the χ² the held terms explain is not counted twice) carries it.
     std = crlb * np.sqrt(max(1.0, chi2 / (dof + extra_chi2))) if dof > 0 else crlb.copy()
     std[free] = np.sqrt(std[free] ** 2 + add_var)
-    message = str(res.message)
+    search_note = ""
     if res.shortfall is not None:
         # where the search stopped short of its objective's minimum the noise std does not reach (GA, PSO)
-        message += "; " + shortfall_note(res.shortfall, std[free], problem.param_names)
+        search_note = shortfall_note(res.shortfall, std[free], problem.param_names)
         std[free] = np.hypot(std[free], res.shortfall)
     if bias_instability is not None:
         # a drift common to all poses moves b without leaving a residual: only a noise model can bound it
@@ -449,7 +451,7 @@ def fit_accel(
         crlb_std=crlb,
         observability=rep,
         success=bool(res.success),
-        message=message,
+        message="; ".join(filter(None, (str(res.message), search_note))),
         nfev=int(res.nfev),
         nit=int(res.nit),
         history=np.asarray(res.history, float),
@@ -457,6 +459,7 @@ def fit_accel(
         trace=dict(res.trace),
         n_distinct=int(labels.max() + 1),
         note=note,
+        search_note=search_note,
     )
 
 

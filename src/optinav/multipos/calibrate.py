@@ -965,9 +965,11 @@ def _fit_accel_gated(
             f"the full accelerometer model failed ({exc.cause}); the misalignments K_xy, K_xz, K_yz are "
             "held at 0 (scales and biases fitted; --model full insists on the full model)"
         )
-        return fit
-    if fit.note:
-        notes.append(fit.note)
+    else:
+        if fit.note:
+            notes.append(fit.note)
+    if fit.search_note:
+        notes.append(f"the {fit.method.upper()} search {fit.search_note}; more --generations or --method lm go further")
     return fit
 
 
