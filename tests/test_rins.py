@@ -116,6 +116,7 @@ def test_a_swarm_stopped_early_holds_its_shortfall_in_the_std(noisy):
     lm = calibrate(method="lm", prep=prep)
     pso = calibrate(method="pso", prep=prep, rng=1, pso_options={"generations": 20})
     assert "std short of its objective's minimum on" in pso.convergence["message"]
+    assert f"search: {pso.convergence['message']}" in pso.summary()
     z = []
     for c, cl in zip(pso.combinations, lm.combinations):
         assert c["std"] == pytest.approx(

@@ -750,6 +750,8 @@ class RinsCalibration(Estimate):
                 f"misalignment and {self.gyro_scale_ppm:.3g} ppm scale (--gyro-misalignment-arcsec, "
                 "--gyro-scale-ppm: give your IMU's)"
             )
+        if self.method == "pso" and self.convergence.get("message"):
+            lines.append(f"  search: {self.convergence['message']}")
         b, a = self.rmse_before_deg, self.rmse_after_deg
         lines.append(
             "  attitude RMSE [roll, pitch, yaw] deg: before "
