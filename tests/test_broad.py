@@ -179,12 +179,14 @@ VQF_ONLINE_DEG, VQF_OFFLINE_DEG, VQF_HEADING_9D_DEG = 0.608, 0.488, 2.21
 def nine():
     if len(NINE) != 9:
         pytest.skip("the nine BROAD trials are not all present")
-    from optinav.attitude.checks import check_imu
+    from optinav.attitude.checks import TimeBaseWarning, check_imu
 
     rows = []
     for p in NINE:
         tr = load_broad(p)
-        check_imu(tr.gyr, tr.acc, np.array([tr.dt]))  # real recordings pass the unit / swap / clipping checks
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", TimeBaseWarning)  # nor is a few percent off their rate said
+            check_imu(tr.gyr, tr.acc, np.array([tr.dt]))  # real recordings pass the unit / swap / clipping checks
         on = estimate_q(tr.gyr, tr.acc, tr.dt, frame="ENU", checks=False)
         off = estimate_q(tr.gyr, tr.acc, tr.dt, frame="ENU", offline=True, checks=False)
         mag = estimate_q(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=tr.mag, checks=False)
@@ -1414,6 +1416,30 @@ def test_a_rate_a_few_percent_off_is_named_with_the_rate_the_data_fit(name, fact
     fit = float(e.value.remedy.split("the data fit ")[1].split(" Hz")[0])
     assert abs(fit / tr.rate_hz - 1) < 0.01, (fit, tr.rate_hz)
     assert "--rate" in e.value.remedy and "calibration" in e.value.remedy
+
+
+@pytest.mark.parametrize(
+    ("name", "factor"),
+    [
+        ("02_undisturbed_slow_rotation_B", 1.02),
+        ("02_undisturbed_slow_rotation_B", 1.0 / 1.02),
+        ("03_undisturbed_slow_rotation_C", 1.02),
+        ("33_disturbed_attached_magnet_2cm", 1.0 / 1.02),
+    ],
+)
+def test_a_rate_two_percent_off_is_said_with_the_rate_the_data_fit(name, factor):
+    """Under 3 % a factor is not refused (a consumer gyro's scale is often 1-2 % off), and BROAD 02, 03 and 33 with
+    their rate 2 % off ran at 1.8-3.5° inclination RMSE (0.39-0.58° at their rate) without a word: the declared gyro
+    drifts gravity there below the whole-log search's floor. From half that floor a factor of 1.25 % or more that
+    holds gravity with at most 0.6 of the declared drift is said in a warning with the rate the data fit (to 1 %);
+    the attitude runs as declared. The nine at their own rate are not warned (the trials' fixture)."""
+    from optinav.attitude.checks import TimeBaseWarning, check_imu
+
+    tr = load_broad(_present(BROAD / f"{name}.hdf5"))
+    with pytest.warns(TimeBaseWarning, match="may be off by about .* or the gyro's scale is") as w:
+        check_imu(tr.gyr, tr.acc, np.array([1.0 / (tr.rate_hz * factor)]))
+    fit = float(str(w[0].message).split("the data fit about ")[1].split(" Hz")[0])
+    assert abs(fit / tr.rate_hz - 1) < 0.01, (fit, tr.rate_hz)
 
 
 @pytest.mark.parametrize(
