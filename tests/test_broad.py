@@ -873,6 +873,35 @@ def test_a_reference_stored_scalar_last_is_named(tmp_path, capsys):
         assert ("stored scalar-last" in err) == warned, err
 
 
+@pytest.mark.parametrize(
+    ("key", "cut", "reference_only"),
+    [("opt_quat", np.s_[:, :3], True), ("opt_quat", np.s_[:-100], True), ("movement", np.s_[:-10], True),
+     ("imu_acc", np.s_[:-50], False)],
+)  # fmt: skip
+def test_a_dataset_not_one_row_per_sample_is_named_in_one_line(tmp_path, capsys, key, cut, reference_only):
+    """opt_quat of 3 columns or 100 rows short, movement 10 rows short, or imu_acc 50 rows short ended in an
+    internal error (exit 1, "operands could not be broadcast together"), in memory and streamed: each names the
+    dataset and its shape (exit 2); a damaged reference only where --reference asks for it."""
+    import h5py
+
+    from optinav.cli.main import main
+
+    bad = _broad_copy(_present(SHARED / BROAD_TRIAL_02), tmp_path / "bad.hdf5")
+    with h5py.File(bad, "r+") as f:
+        x = f[key][()]
+        del f[key]
+        f[key] = x[cut]
+    for extra in ([], ["--offline"]):
+        for reference in ([], ["--reference"]):
+            argv = ["--quiet", "attitude", str(bad), "--frame", "ENU", *reference, *extra]
+            code = main([*argv, "--out", str(tmp_path / "x.csv")])
+            err = capsys.readouterr().err
+            if reference_only and not reference:
+                assert code == 0, err
+                continue
+            assert code == 2 and err.count("\n") == 1 and f"bad.hdf5: {key} has shape" in err, err
+
+
 def test_swapped_triads_of_a_fast_turning_log_are_named(tmp_path, capsys):
     """Trial 29's gyro turns at a median 3.6 rad/s (over 0.3 g as a number): its triads swapped were blamed on
     "gravity removed (a linear-acceleration output)". An accelerometer never reads near zero but in free

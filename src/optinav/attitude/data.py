@@ -81,6 +81,26 @@ def _names(p: Path) -> set:
     return set(load_table(p).data)
 
 
+#: BROAD's datasets and their columns, one row per sample of ``imu_gyr``
+BROAD_COLUMNS = {"imu_gyr": 3, "imu_acc": 3, "imu_mag": 3, "opt_quat": 4, "movement": 1}
+
+
+def check_broad_shapes(name: str, shapes: dict) -> None:
+    """Refuse a BROAD-layout file whose datasets (``shapes``: name → shape, those to judge) are not one row per
+    sample of ``imu_gyr`` with BROAD's columns (:data:`BROAD_COLUMNS`; ``movement`` (N,) or (N, 1)): an
+    ``opt_quat`` 100 rows short or of 3 columns, or a short ``imu_acc``, ended in an internal error."""
+    n = int(shapes["imu_gyr"][0]) if len(shapes.get("imu_gyr", ())) else None
+    for key, shape in shapes.items():
+        shape, width = tuple(int(x) for x in shape), BROAD_COLUMNS[key]
+        if len(shape) in (1, 2) and shape[0] == (shape[0] if n is None else n) and (shape[1:] or (1,))[0] == width:
+            continue
+        raise OptinavError(
+            f"{name}: {key} has shape {shape}, not {(n, width) if width > 1 else (n,)} (one row per sample of "
+            "imu_gyr, as BROAD stores it)",
+            "pass the trial as published" + (", or drop --reference" if key in ("opt_quat", "movement") else ""),
+        )
+
+
 def is_broad(path) -> bool:
     """True for an HDF5 or MAT file (by suffix) holding BROAD's ``imu_gyr`` and ``imu_acc``."""
     p = Path(path)
@@ -172,11 +192,13 @@ def load_broad(path, options=None) -> BroadTrial:
             rate = f.attrs.get("sampling_rate") if rate is None else rate
     fa, fg, rate = broad_units(p.name, attrs, options, rate)
     gyr = np.asarray(tab.get("imu_gyr"), float) * fg
+    acc = np.asarray(tab.get("imu_acc"), float) * fa
     mag = np.asarray(tab.get("imu_mag"), float) if "imu_mag" in tab.data else np.full(gyr.shape, np.nan)
+    check_broad_shapes(p.name, {"imu_gyr": gyr.shape, "imu_acc": acc.shape, "imu_mag": mag.shape})
     n = gyr.shape[0]
     return BroadTrial(
         gyr=gyr,
-        acc=np.asarray(tab.get("imu_acc"), float) * fa,
+        acc=acc,
         mag=mag,
         q_ref=np.asarray(tab.get("opt_quat"), float) if "opt_quat" in tab.data else np.full((n, 4), np.nan),
         movement=np.asarray(tab.get("movement")).ravel().astype(bool) if "movement" in tab.data else np.zeros(n, bool),

@@ -416,7 +416,7 @@ class _Blocks:
         from optinav.attitude.data import has_reference, is_broad
 
         self.path, self.o, self.mag, self.pol, self.chunk_rows = Path(path), o, mag, pol, max(int(chunk_rows), 2)
-        self.truth_csv, self.truth_frame = truth_csv, truth_frame
+        self.truth_csv, self.truth_frame, self.reference = truth_csv, truth_frame, reference
         self.gyro_unit = "rad/s"  # as the file declared it (the checks' messages name it), set by the first block
         self.broad = is_broad(path) and not o.columns and not o.datasets
         if not mag:
@@ -650,7 +650,7 @@ class _Blocks:
     def _broad(self):
         import contextlib
 
-        from optinav.attitude.data import load_broad
+        from optinav.attitude.data import check_broad_shapes, load_broad
         from optinav.core.rotations import attitude_in_frame
 
         with contextlib.ExitStack() as stack:
@@ -662,6 +662,9 @@ class _Blocks:
                 tr = load_broad(self.path, self.o)
                 fa = fg = 1.0
             self.gyro_unit = tr.gyro_unit  # as declared: the checks' messages name it
+            if self.reference:
+                shapes = {"imu_gyr": tr.gyr.shape, "opt_quat": tr.q_ref.shape, "movement": tr.movement.shape}
+                check_broad_shapes(self.path.name, shapes)
             n = tr.gyr.shape[0]
             h = 1.0 / tr.rate_hz
             prev = None
@@ -704,7 +707,7 @@ class _Hdf5Trial:
     def __init__(self, stack, path: Path, options=None):
         import h5py
 
-        from optinav.attitude.data import broad_declared, broad_units
+        from optinav.attitude.data import broad_declared, broad_units, check_broad_shapes
 
         try:
             f = stack.enter_context(h5py.File(path, "r"))
@@ -719,6 +722,7 @@ class _Hdf5Trial:
                 rate = f["sampling_rate"][()]
             attrs = dict(f.attrs)
             self.gyr, self.acc = f["imu_gyr"], f["imu_acc"]
+            shapes = {k: f[k].shape for k in ("imu_gyr", "imu_acc", "imu_mag") if k in f}
             n = self.gyr.shape[0]
             self.q_ref = f["opt_quat"] if "opt_quat" in f else np.full((n, 4), np.nan)
             self.movement = f["movement"] if "movement" in f else np.zeros(n, bool)
@@ -727,6 +731,7 @@ class _Hdf5Trial:
             from optinav.io.readers import h5_damaged
 
             raise h5_damaged(path, exc) from None
+        check_broad_shapes(path.name, shapes)
         self.acc_factor, self.gyro_factor, self.rate_hz = broad_units(path.name, attrs, options, rate)
         self.gyro_unit = str(broad_declared("gyro_unit", attrs, options) or "rad/s")
 

@@ -134,7 +134,7 @@ def refuse_unused_mag_topic(path, options: AttitudeOptions) -> None:
 def read_log(path, options: AttitudeOptions, *, reference: bool = False):
     """(t s, gyr rad/s, acc m/s², mag or None, (q_ref, movement) or None) from a BROAD trial as published
     (its optical reference when ``reference``) or any IMU log in SI units."""
-    from optinav.attitude.data import has_reference, is_broad, load_broad
+    from optinav.attitude.data import check_broad_shapes, has_reference, is_broad, load_broad
 
     o = options
     want_mag = o.uses_mag
@@ -148,6 +148,9 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
         if o.mag_path is not None:
             raise OptinavError(f"{Path(path).name} is a BROAD trial, which holds its magnetometer", "drop --mag-file")
         tr = load_broad(path, o)
+        if reference:
+            shapes = {"imu_gyr": tr.gyr.shape, "opt_quat": tr.q_ref.shape, "movement": tr.movement.shape}
+            check_broad_shapes(Path(path).name, shapes)
         t = np.arange(tr.gyr.shape[0]) / tr.rate_hz
         return t, tr.gyr, tr.acc, tr.mag if want_mag else None, (tr.q_ref, tr.movement)
     from optinav.io import read_imu
