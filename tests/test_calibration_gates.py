@@ -959,3 +959,20 @@ def test_a_drifting_accelerometer_bias_is_noted_with_its_size(axis):
     true_mg = 2.0 * (tc[-1] - tc[0]) / (s.t[-1] - s.t[0])
     # 0.05 mg: the note rounds the size to two digits
     assert abs(float(m[2]) - true_mg) < 3 * true_mg / float(m[4]) + 0.05, (note, true_mg)
+
+
+@pytest.mark.parametrize("method", ["ga", "pso"])
+def test_a_search_stopped_after_few_generations_is_named_not_the_data(tmp_path, capsys, method):
+    """GA or PSO with 3 generations on a clean session: "the poses do not fit one accelerometer model … check for
+    motion inside the static intervals" (the data fit LM to 1e-4 m/s²), or a silent fall-back to the diagonal model.
+    The local search from the best particle reaches a minimum that passes the gate: the search is named, with the
+    flags that help."""
+    f = tmp_path / "d.csv"
+    argv = ["--quiet", "simulate", "accel-multipos", "--out", str(f), "--dwell", "6", "--acc-unit", "counts"]
+    assert main(argv + ["--seed", "1"]) == 0
+    base = ["--quiet", "calibrate", "accel", str(f), "--latitude", "38.88", "--out", str(tmp_path / "r.json")]
+    assert main(base + ["--method", "lm"]) == 0
+    capsys.readouterr()
+    err = _cli_error(capsys, base + ["--method", method, "--generations", "3"])
+    assert f"the {method.upper()} search stopped short of the minimum of its objective" in err, err
+    assert "--generations" in err and "--method lm" in err and "motion" not in err, err

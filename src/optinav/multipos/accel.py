@@ -232,6 +232,8 @@ class AccelFit(Result):
     note: str = field(default="", metadata={"unit": "-"})
     #: GA/PSO: how far the search stopped short of its objective's minimum, in std (also in ``message``; "" otherwise)
     search_note: str = field(default="", metadata={"unit": "-"})
+    #: GA/PSO: the step from ``theta`` to its objective's minimum (0 for held terms; None for local methods)
+    shortfall: np.ndarray | None = field(default=None, metadata={"unit": "raw/(m/s^2) | raw"})
 
 
 def _observability(J, sigma, free) -> ObservabilityReport:
@@ -424,8 +426,10 @@ def fit_accel(
     # variance factor χ²/dof (never below 1; the χ² the held terms explain is not counted twice) carries it.
     std = crlb * np.sqrt(max(1.0, chi2 / (dof + extra_chi2))) if dof > 0 else crlb.copy()
     std[free] = np.sqrt(std[free] ** 2 + add_var)
-    search_note = ""
+    search_note, shortfall = "", None
     if res.shortfall is not None:
+        shortfall = np.zeros(9)
+        shortfall[free] = res.shortfall
         # where the search stopped short of its objective's minimum the noise std does not reach (GA, PSO)
         search_note = shortfall_note(res.shortfall, std[free], problem.param_names)
         std[free] = np.hypot(std[free], res.shortfall)
@@ -460,6 +464,7 @@ def fit_accel(
         n_distinct=int(labels.max() + 1),
         note=note,
         search_note=search_note,
+        shortfall=shortfall,
     )
 
 

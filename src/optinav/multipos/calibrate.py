@@ -946,6 +946,11 @@ def _row_norms(raw, rows, theta=None) -> np.ndarray:
     return out
 
 
+class SearchStoppedShort(OptinavError):
+    """A GA/PSO fit whose residual fails the gate where the minimum its search was heading for passes it: the
+    optimizer's, not the data's (no fallback to a smaller model)."""
+
+
 def _fit_accel_gated(
     st, g, notes: list, *, acc_unit: str, model_form: str, gate_log: list | None = None, **kw
 ) -> accel.AccelFit:
@@ -957,7 +962,7 @@ def _fit_accel_gated(
     try:
         gate_log += _accel_gates(fit, st, acc_unit)
     except OptinavError as exc:
-        if model_form != "auto" or fit.held:
+        if model_form != "auto" or fit.held or isinstance(exc, SearchStoppedShort):
             raise
         fit = accel.fit_accel(st, g, model_form="diagonal", **kw)
         gate_log += _accel_gates(fit, st, acc_unit)
@@ -983,6 +988,16 @@ def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -
             + ", or check the static intervals (--threshold, --sections) and the units (--acc-unit)",
         )
     rms = float(np.sqrt(np.mean(fit.residuals**2)))
+    if rms > gates.MAX_RESIDUAL_G * fit.g and fit.shortfall is not None:
+        near = float(np.sqrt(np.mean(model.norm_residuals(fit.theta + fit.shortfall, st.means, fit.g) ** 2)))
+        if near <= gates.MAX_RESIDUAL_G * fit.g:
+            # the poses fit one model: the search ended before it (GA/PSO with few generations)
+            raise SearchStoppedShort(
+                f"the {fit.method.upper()} search stopped short of the minimum of its objective: residual RMS of "
+                f"|a| - g {rms:.3g} m/s^2 where the minimum it was heading for has {near:.3g} "
+                f"({fit.message.split(';')[0]})",
+                "pass more --generations, or --method lm",
+            )
     if rms > gates.MAX_RESIDUAL_G * fit.g:
         k = int(np.argmax(np.abs(fit.residuals)))
         # an axis without any noise in a pose sits at a limit: a sensor clipped at its range reads the same
