@@ -902,6 +902,42 @@ def test_a_dataset_not_one_row_per_sample_is_named_in_one_line(tmp_path, capsys,
             assert code == 2 and err.count("\n") == 1 and f"bad.hdf5: {key} has shape" in err, err
 
 
+@pytest.mark.parametrize(("triad", "k"), [("gyr", 0), ("gyr", 2), ("acc", 1)])
+def test_a_dead_axis_is_named_and_a_noise_free_simulated_one_is_not(tmp_path, capsys, triad, k):
+    """BROAD 02 with its gyro's x at 0 in every sample ran at 75.6° inclination RMSE with exit 0 (0.39° as
+    recorded; its accelerometer's y at 0: 5.6°), and with --reference was blamed on the reference. An axis that
+    reads one value throughout while the triad's other axes vary with a sensor's noise is named, in memory and
+    streamed; a noise-free simulated yaw (gyro x and y exactly 0) runs."""
+    from optinav.attitude.checks import check_imu
+    from optinav.cli.main import main
+
+    tr = load_broad(_present(SHARED / BROAD_TRIAL_02))
+    gyr, acc = tr.gyr.copy(), tr.acc.copy()
+    (gyr if triad == "gyr" else acc)[:, k] = 0.0
+    name = "gyro" if triad == "gyr" else "accelerometer"
+    with pytest.raises(OptinavError, match=f"{name} axis {'xyz'[k]} reads 0 .* in every one of"):
+        check_imu(gyr, acc, np.array([tr.dt]))
+    f = tmp_path / "dead.csv"
+    np.savetxt(f, np.column_stack([gyr, acc]), delimiter=",", header="gx,gy,gz,ax,ay,az", comments="")
+    argv = [
+        "--quiet",
+        "attitude",
+        str(f),
+        "--rate",
+        str(tr.rate_hz),
+        "--frame",
+        "ENU",
+        "--out",
+        str(tmp_path / "x.csv"),
+    ]
+    assert main(argv) == 2
+    assert f"{name} axis {'xyz'[k]} reads 0" in capsys.readouterr().err
+    n = 5000
+    w = np.zeros((n, 3))
+    w[:, 2] = 0.5 * np.sin(np.arange(n) * 0.01)
+    check_imu(w, np.tile([0.0, 0.0, 9.81], (n, 1)), np.array([0.01]))
+
+
 def test_swapped_triads_of_a_fast_turning_log_are_named(tmp_path, capsys):
     """Trial 29's gyro turns at a median 3.6 rad/s (over 0.3 g as a number): its triads swapped were blamed on
     "gravity removed (a linear-acceleration output)". An accelerometer never reads near zero but in free

@@ -1337,6 +1337,9 @@ def check_imu(
     ng = _norm(gyr)
     dt = float(np.median(dts))
     check_rate(dt)
+    head = slice(0, DEAD_HEAD_ROWS)
+    noisy = (noisy_axes(gyr[head]), noisy_axes(acc[head]))
+    check_dead_axes(gyr.max(axis=0), gyr.min(axis=0), acc.max(axis=0), acc.min(axis=0), gyr.shape[0], noisy)
     bins, sums = tilt_sums(acc)
     share = gravity_share(bins, sums, dt, na, ng)
     low = (float(np.percentile(na, LOW_PERCENTILE)), float(np.percentile(ng, LOW_PERCENTILE)))
@@ -1352,6 +1355,46 @@ def check_imu(
     whole = lambda: long_time_hint(*whole_log_bins(gu, acc, dts, ng), dt)  # noqa: E731
     check_time_base(windows, whole, gyro_unit, share, axes)
     _check_clipping(gyr, gyro_range, dt, acc)
+
+
+#: samples from which a triad's axis that reads one value in all of them, while another axis of it varies, is dead
+DEAD_MIN_ROWS = 100
+#: the first rows of a log on which the other axes' noise is judged (:func:`noisy_axes`)
+DEAD_HEAD_ROWS = 4096
+
+
+def noisy_axes(x: np.ndarray) -> np.ndarray:
+    """Which axes of ``x`` (m, 3; a log's first rows) carry a sensor's noise: their second differences as large as
+    half their first ones (white noise: √3×; a noise-free simulated motion's are far smaller)."""
+    if x.shape[0] < 10:
+        return np.zeros(x.shape[1], bool)
+    d1 = np.abs(np.diff(x, axis=0))
+    d2 = np.abs(np.diff(x, 2, axis=0))
+    m1 = np.nanmean(d1, axis=0)
+    return (m1 > 0) & (np.nanmean(d2, axis=0) > 0.5 * m1)
+
+
+def check_dead_axes(gmax, gmin, amax, amin, n: int, noisy) -> None:
+    """Refuse a gyro or accelerometer axis that reads one value in every sample of the log (its largest and smallest
+    equal; ``gmax``, ``gmin``, ``amax``, ``amin`` (3,) per axis, rad/s and m/s²) while another axis of the triad
+    varies with a sensor's noise (``noisy``: (gyro, accelerometer) (3,) bool, :func:`noisy_axes`; a noise-free
+    simulated yaw keeps its gyro's x and y at 0), from :data:`DEAD_MIN_ROWS` samples (``n``): BROAD 02 with its
+    gyro's x at 0 ran at 75.6° inclination RMSE with exit 0 (0.39° as recorded), with its accelerometer's y at 0
+    at 5.6°."""
+    if n < DEAD_MIN_ROWS:
+        return
+    for name, hi, lo, unit, loud in (
+        ("gyro", gmax, gmin, "rad/s", noisy[0]),
+        ("accelerometer", amax, amin, "m/s^2", noisy[1]),
+    ):
+        dead = np.asarray(hi) == np.asarray(lo)
+        if dead.any() and np.any(np.asarray(loud) & ~dead):
+            k = int(np.argmax(dead))
+            raise OptinavError(
+                f"{name} axis {'xyz'[k]} reads {float(hi[k]):.6g} {unit} in every one of the {n} samples while its "
+                "other axes vary: a dead axis, or a column that is not the sensor's",
+                "check the columns (--columns) and the sensor; no attitude is reliable without that axis",
+            )
 
 
 #: sample rates (Hz) an IMU log can have: outside, the time column's unit or --rate is wrong

@@ -36,6 +36,8 @@ class StreamChecks:
         self._ng: list[np.ndarray] = []
         self._tilt: list[tuple[np.ndarray, np.ndarray]] = []  # specific-force sums per TILT_BIN samples
         self._max = np.full((3, 2), -np.inf)  # per axis, the largest of +ω and of −ω
+        self._acc_max = np.full((3, 2), -np.inf)  # per axis, the largest of +a and of −a (a dead axis)
+        self._noisy: tuple[np.ndarray, np.ndarray] | None = None
         self._level = np.zeros(2, dtype=np.int64)  # samples lying level, body z up and down (frame check)
         self._gyr_head: list[np.ndarray] = []  # gyro steps spread over the blocks (each axis's quantum)
         self._gyr_head_n = 0
@@ -89,6 +91,11 @@ class StreamChecks:
         self._still.append(_c.still_sums(gyr, acc, self.n))  # (the rest offset the unit checks take off, too)
         self._max[:, 0] = np.maximum(self._max[:, 0], gyr.max(axis=0))
         self._max[:, 1] = np.maximum(self._max[:, 1], (-gyr).max(axis=0))
+        self._acc_max[:, 0] = np.maximum(self._acc_max[:, 0], acc.max(axis=0))
+        self._acc_max[:, 1] = np.maximum(self._acc_max[:, 1], (-acc).max(axis=0))
+        if self._noisy is None:  # the first block's rows: which axes carry a sensor's noise (a dead axis)
+            head = slice(0, _c.DEAD_HEAD_ROWS)
+            self._noisy = (_c.noisy_axes(gyr[head]), _c.noisy_axes(acc[head]))
         if self._gyr_head_n < _c.QUANTUM_ROWS:  # steps between samples spread over the blocks: each axis's quantum
             self._gyr_head.append(_c.axis_steps(gyr, 256))
             self._gyr_head_n += self._gyr_head[-1].shape[0]
@@ -170,6 +177,9 @@ class StreamChecks:
         self.median_dt = float(np.median(dts))
         del dts
         _c.check_rate(self.median_dt)
+        gm, am = self._max, self._acc_max
+        if self._noisy is not None:
+            _c.check_dead_axes(gm[:, 0], -gm[:, 1], am[:, 0], -am[:, 1], self.n, self._noisy)
         ng = np.concatenate(self._ng)
         self._ng = []
         self.peak = float(np.max(ng))
