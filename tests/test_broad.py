@@ -938,6 +938,44 @@ def test_a_dead_axis_is_named_and_a_noise_free_simulated_one_is_not(tmp_path, ca
     check_imu(w, np.tile([0.0, 0.0, 9.81], (n, 1)), np.array([0.01]))
 
 
+@pytest.mark.parametrize(
+    ("name", "g", "refused"),
+    [("16_undisturbed_fast_translation_B", 4.0, True), ("16_undisturbed_fast_translation_B", 8.0, False),
+     ("24_disturbed_tapping_A", 4.0, False)],
+)  # fmt: skip
+def test_a_clipped_accelerometer_is_refused_where_it_holds_the_tilt_off(tmp_path, capsys, name, g, refused):
+    """BROAD 16 (sustained accelerations) with its accelerometer clipped at ±4 g ran at 6.0° inclination RMSE with
+    exit 0 (0.49° as recorded; ±2 g 15.8°): only the gyro's clipping was judged. Clipped in 3.7 % of the samples it
+    is refused, in memory and streamed; at ±8 g (0.19 %, 0.60°) and 24's taps at ±4 g (0.09 %, 0.63° as recorded
+    0.64°) it is said in a warning."""
+    from optinav.attitude.checks import ClippingWarning, check_imu
+    from optinav.cli.main import main
+
+    tr = load_broad(_present(BROAD / f"{name}.hdf5"))
+    acc = np.clip(tr.acc, -g * 9.80665, g * 9.80665)
+    if refused:
+        with pytest.raises(OptinavError, match="accelerometer axis . is clipped at"):
+            check_imu(tr.gyr, acc, np.array([tr.dt]))
+    else:
+        with pytest.warns(ClippingWarning, match="accelerometer axis . is clipped at"):
+            check_imu(tr.gyr, acc, np.array([tr.dt]))
+    f = tmp_path / "clipped.csv"
+    np.savetxt(f, np.column_stack([tr.gyr, acc]), delimiter=",", header="gx,gy,gz,ax,ay,az", comments="")
+    argv = [
+        "--quiet",
+        "attitude",
+        str(f),
+        "--rate",
+        str(tr.rate_hz),
+        "--frame",
+        "ENU",
+        "--out",
+        str(tmp_path / "x.csv"),
+    ]
+    assert main(argv) == (2 if refused else 0)
+    assert "accelerometer axis" in capsys.readouterr().err
+
+
 def test_swapped_triads_of_a_fast_turning_log_are_named(tmp_path, capsys):
     """Trial 29's gyro turns at a median 3.6 rad/s (over 0.3 g as a number): its triads swapped were blamed on
     "gravity removed (a linear-acceleration output)". An accelerometer never reads near zero but in free

@@ -40,6 +40,7 @@ class StreamChecks:
         self._noisy: tuple[np.ndarray, np.ndarray] | None = None
         self._level = np.zeros(2, dtype=np.int64)  # samples lying level, body z up and down (frame check)
         self._gyr_head: list[np.ndarray] = []  # gyro steps spread over the blocks (each axis's quantum)
+        self._acc_head: list[np.ndarray] = []  # and the accelerometer's
         self._gyr_head_n = 0
         self.n = 0
         self._mag: list[np.ndarray] = []  # magnetometer rows 0, s, 2s, … (the hard-iron check)
@@ -98,6 +99,7 @@ class StreamChecks:
             self._noisy = (_c.noisy_axes(gyr[head]), _c.noisy_axes(acc[head]))
         if self._gyr_head_n < _c.QUANTUM_ROWS:  # steps between samples spread over the blocks: each axis's quantum
             self._gyr_head.append(_c.axis_steps(gyr, 256))
+            self._acc_head.append(_c.axis_steps(acc, 256))
             self._gyr_head_n += self._gyr_head[-1].shape[0]
         self.n += gyr.shape[0]
 
@@ -200,7 +202,11 @@ class StreamChecks:
         _c.check_norms(med_a, med_g, self.peak, self.gyro_unit, share, low)
         # pass 2 gathers the unit window and, per axis and sign reaching 1 rad/s, the samples at the extreme
         self._win: list[list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = [[] for _ in self.windows]
-        self._clip = {(k, j): ([], [], [], []) for k in range(3) for j in range(2) if self._max[k, j] >= 1.0}
+        # (and the accelerometer's from ACC_CLIP_MIN)
+        self._clip = {(0, k, j): ([], [], [], []) for k in range(3) for j in range(2) if self._max[k, j] >= 1.0}
+        self._clip.update(
+            {(1, k, j): ([], [], [], []) for k in range(3) for j in range(2) if self._acc_max[k, j] >= _c.ACC_CLIP_MIN}
+        )
         # and the whole log in bins (its time base judged over minutes), when long enough
         self._long_m = (
             _c.long_bin_rows(self.n, self.median_dt, rms_rate) if self.n * self.median_dt >= _c.LONG_MIN_S else 0
@@ -227,9 +233,10 @@ class StreamChecks:
         if self._long_m:
             self._long.append(_c.time_bins(gu, acc, dts, self._long_m, row0))
         self._axes.append(_c.time_bins(gu, acc, dts, self._axes_m, row0))
-        for (k, j), (idx, keys, vals, rows) in self._clip.items():
-            y = gyr[:, k] if j == 0 else -gyr[:, k]
-            m = self._max[k, j]
+        for (t, k, j), (idx, keys, vals, rows) in self._clip.items():
+            x = (gyr, acc)[t][:, k]
+            y = x if j == 0 else -x
+            m = (self._max, self._acc_max)[t][k, j]
             at = np.flatnonzero(y >= m - 1e-9 * max(m, 1.0))
             # the values at the extreme and beside it; a block's first and last value serve the runs that cross
             # from one block to the next
@@ -266,20 +273,25 @@ class StreamChecks:
             (*(np.concatenate(x) for x in zip(*got)), peak) for got, peak in zip(self._win, self.window_max) if got
         )
         _c.check_time_base(windows, self._long_hint, self.gyro_unit, self.gravity_share, self._axes_hint)
-        for (k, j), (idx, keys, vals, rows) in self._clip.items():
+        acc_found = []
+        for (t, k, j), (idx, keys, vals, rows) in self._clip.items():
             keys, first = np.unique(np.concatenate(keys), return_index=True)
             vals = np.concatenate(vals)[first]
             idx, rows = np.concatenate(idx), np.concatenate(rows)
-            m = self._max[k, j]
-            q = _c.quantum(np.concatenate(self._gyr_head)[:, k]) if self._gyr_head else 0.0
+            m = (self._max, self._acc_max)[t][k, j]
+            head = (self._gyr_head, self._acc_head)[t]
+            q = _c.quantum(np.concatenate(head)[:, k]) if head else 0.0
 
             def held(s, e, idx=idx, rows=rows):
                 r = rows[np.searchsorted(idx, s) : np.searchsorted(idx, e)]
                 return bool(np.all(r == r[0]))
 
             steep = _c.steep_runs(idx, lambda i: vals[np.searchsorted(keys, i)], self.n, m, self.median_dt, q, held)
-            if steep:
+            if steep and t == 0:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
+            if steep:
+                acc_found.append((k, m if j == 0 else -m, idx.size, steep))
+        _c.acc_clipped(acc_found, self.n)
         if self.bias_clip is not None:  # after the units and the clipping, as estimate() judges it after check_imu
             field = self._turn_sums if self._scale_sums else None
             _c.check_bias_range(self._reading, self.bias_clip, self.method, self._long_bins, field)
