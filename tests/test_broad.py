@@ -976,6 +976,41 @@ def test_a_clipped_accelerometer_is_refused_where_it_holds_the_tilt_off(tmp_path
     assert "accelerometer axis" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("held", ["last", "zeros"])
+def test_a_logger_that_stalled_in_motion_is_named(tmp_path, capsys, held):
+    """BROAD 02 with every channel holding one sample for 2 s in motion ran at 5.2° inclination and 39.5° heading
+    RMSE with exit 0 (0.39° / 0.70° as recorded); with 2 s of zeros at 81.5° heading. A whole sample repeated for
+    0.5 s while its gyro reads a turn, or its accelerometer 0 on three axes, is named with its rows, in memory and
+    streamed; the nine as recorded pass (the trials' fixture)."""
+    from optinav.attitude.checks import check_imu
+    from optinav.cli.main import main
+
+    tr = load_broad(_present(SHARED / BROAD_TRIAL_02))
+    gyr, acc = tr.gyr.copy(), tr.acc.copy()
+    a = int(np.flatnonzero(np.linalg.norm(gyr, axis=1) > 0.3)[len(gyr) // 4])  # in motion
+    s = slice(a + 1, a + int(2.0 * tr.rate_hz))
+    gyr[s], acc[s] = (gyr[a], acc[a]) if held == "last" else (0.0, 0.0)
+    if held == "zeros":
+        gyr[a], acc[a] = 0.0, 0.0
+    with pytest.raises(OptinavError, match=r"rows \d+-\d+ repeat one whole sample for 2 s"):
+        check_imu(gyr, acc, np.array([tr.dt]))
+    f = tmp_path / "stalled.csv"
+    np.savetxt(f, np.column_stack([gyr, acc]), delimiter=",", header="gx,gy,gz,ax,ay,az", comments="")
+    argv = [
+        "--quiet",
+        "attitude",
+        str(f),
+        "--rate",
+        str(tr.rate_hz),
+        "--frame",
+        "ENU",
+        "--out",
+        str(tmp_path / "x.csv"),
+    ]
+    assert main(argv) == 2
+    assert f"rows {a + 1}-" in capsys.readouterr().err
+
+
 def test_swapped_triads_of_a_fast_turning_log_are_named(tmp_path, capsys):
     """Trial 29's gyro turns at a median 3.6 rad/s (over 0.3 g as a number): its triads swapped were blamed on
     "gravity removed (a linear-acceleration output)". An accelerometer never reads near zero but in free

@@ -38,6 +38,7 @@ class StreamChecks:
         self._max = np.full((3, 2), -np.inf)  # per axis, the largest of +ω and of −ω
         self._acc_max = np.full((3, 2), -np.inf)  # per axis, the largest of +a and of −a (a dead axis)
         self._noisy: tuple[np.ndarray, np.ndarray] | None = None
+        self._held = _c.HeldRows()  # a whole sample repeated in a turn (a logger that stalled)
         self._level = np.zeros(2, dtype=np.int64)  # samples lying level, body z up and down (frame check)
         self._gyr_head: list[np.ndarray] = []  # gyro steps spread over the blocks (each axis's quantum)
         self._acc_head: list[np.ndarray] = []  # and the accelerometer's
@@ -94,6 +95,7 @@ class StreamChecks:
         self._max[:, 1] = np.maximum(self._max[:, 1], (-gyr).max(axis=0))
         self._acc_max[:, 0] = np.maximum(self._acc_max[:, 0], acc.max(axis=0))
         self._acc_max[:, 1] = np.maximum(self._acc_max[:, 1], (-acc).max(axis=0))
+        self._held.add(gyr, acc)
         if self._noisy is None:  # the first block's rows: which axes carry a sensor's noise (a dead axis)
             head = slice(0, _c.DEAD_HEAD_ROWS)
             self._noisy = (_c.noisy_axes(gyr[head]), _c.noisy_axes(acc[head]))
@@ -182,6 +184,7 @@ class StreamChecks:
         gm, am = self._max, self._acc_max
         if self._noisy is not None:
             _c.check_dead_axes(gm[:, 0], -gm[:, 1], am[:, 0], -am[:, 1], self.n, self._noisy)
+            self._held.check(self.median_dt, self._noisy)
         ng = np.concatenate(self._ng)
         self._ng = []
         self.peak = float(np.max(ng))
