@@ -386,7 +386,8 @@ def result_columns(res) -> dict:
         "schema": res.SCHEMA,
         "method": str(res.method),
         "converged": res.convergence.get("converged"),
-        "gates_passed": all(bool(g["passed"]) for g in gates),
+        # none checked is no pass (an attitude estimate has no gates): empty, not True
+        "gates_passed": all(bool(g["passed"]) for g in gates) if gates else None,
         "n_gates": len(gates),
         "unobservable": "; ".join(res.unobservable()),
     }
