@@ -245,3 +245,18 @@ def test_a_report_folder_keeps_files_a_report_did_not_write(tmp_path, capsys):
     first = (d / "summary.json").read_text()
     assert main(["--quiet", "report", f"{s}/r.json", "--out", str(d)]) == 0  # its own earlier report: replaced
     assert json.loads((d / "summary.json").read_text())["schema"] == json.loads(first)["schema"]
+
+
+def test_a_pose_plan_or_a_truth_file_is_named_not_an_unknown_schema(tmp_path, capsys):
+    """`report plan.json` said "unknown result schema 'optinav.pose_plan'; upgrade optinav" of optinav's own plan,
+    and a simulation's truth file "no 'schema'/'fields' keys" though it has a schema: each is named for what it is."""
+    from optinav.cli.main import main
+
+    plan, sim = tmp_path / "plan.json", tmp_path / "s.csv"
+    assert main(["--quiet", "design", "--poses", "12", "--preset", "mems-mti1", "--out", str(plan)]) == 0
+    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(sim), "--dwell", "4", "--seed", "1"]) == 0
+    capsys.readouterr()
+    for path, what in ((plan, "is a pose plan (optinav design"), (sim.with_name("s.truth.json"), "simulation's truth")):
+        assert main(["--quiet", "report", str(path), "--out", str(tmp_path / "rep")]) == 2
+        err = capsys.readouterr().err
+        assert what in err and "not a calibration or estimate result" in err and err.count("\n") == 1, err

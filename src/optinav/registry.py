@@ -119,13 +119,47 @@ def for_result(path) -> tuple[System, Any]:
     text = read_text(path, "result file")
     if not text.lstrip().startswith("{") or '"schema"' not in text:
         return SYSTEMS[EXCHANGE_SYSTEM], None
-    res = Result.from_json(path)
+    try:
+        res = Result.from_json(path)
+    except OptinavError:
+        _not_a_result(path, text)
+        raise
     name = getattr(res, "SYSTEM", None)
     if name not in SYSTEMS:
+        _not_a_result(path, text)
         raise OptinavError(
             f"{path} ({res.SCHEMA}) is not the result of a registered system", f"pass a result of {', '.join(SYSTEMS)}"
         )
     return SYSTEMS[name], res
+
+
+def _not_a_result(path, text: str) -> None:
+    """Raise where the file at ``path`` is one optinav writes that is no calibration or estimate result (a pose plan
+    was told "unknown result schema … upgrade optinav", a simulation's truth "no 'schema'/'fields' keys")."""
+    import json
+
+    from optinav.core.results import PLAIN_ARRAYS_SINCE
+
+    try:
+        schema = json.loads(text).get("schema")
+    except (ValueError, AttributeError):
+        return
+    if not isinstance(schema, str) or not (schema in PLAIN_ARRAYS_SINCE or schema.endswith(".truth")):
+        return
+    parts = schema.split(".")
+    if len(parts) == 3 and parts[1] in SYSTEMS and parts[2] != "truth":
+        return  # a system's result (damaged, or of another version): its own error says what
+    what = (
+        "a pose plan (optinav design; its report: optinav design ... --out plan.md)"
+        if schema == "optinav.pose_plan"
+        else "a simulation's truth (optinav simulate)"
+        if schema.endswith(".truth")
+        else f"optinav's {schema}"
+    )
+    raise OptinavError(
+        f"{path} is {what}, not a calibration or estimate result",
+        "pass RESULT.json written by optinav calibrate, attitude or allan",
+    )
 
 
 register(
