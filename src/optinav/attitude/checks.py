@@ -1168,8 +1168,9 @@ def _few_percent(pieces: list[tuple], s: float, best: float, declared: float, dt
     (:data:`SCALE_WARN` up to :data:`SCALE_NEAR`) at :data:`SCALE_WARN_RATIO` of the declared drift or less, else
     None; ``s``, ``best``: the search's factor and its drift (bias fitted), found again here with the fitted bias
     (which the rest bias leaves ~1 % off) where they pass."""
+    # (the rest bias leaves the factor up to 1 % nearer 1: the nine as declared end here, at no further cost)
     if abs(np.log(s)) < np.log(SCALE_WARN) - 0.01 or best > SCALE_WARN_RATIO * declared:
-        return None  # (the nine as declared, at no cost)
+        return None
     s, best = _scan(pieces, s * np.exp(np.linspace(-0.02, 0.02, 9)), fit_bias=True)
     if not np.log(SCALE_WARN) <= abs(np.log(s)) < np.log(SCALE_NEAR) or best > SCALE_WARN_RATIO * declared:
         return None
@@ -1402,17 +1403,17 @@ def check_dead_axes(gmax, gmin, amax, amin, n: int, noisy) -> None:
 
 
 #: s: a whole sample (gyro and accelerometer) repeated this long while its gyro reads a turn (≥ HELD_TURN rad/s)
-#: or its accelerometer 0 on three axes is a logger that stalled or padded (BROAD 02 with 2 s of zeros in motion:
-#: 81.5° heading RMSE with exit 0): BROAD 02 with every channel held for 2 s in motion ran at 5.2° inclination and 39.5°
-#: heading RMSE with exit 0 (0.39° and 0.70° as recorded), for 10 s at 30.8°; no sensor repeats a turn bit for bit
-#: (a body at rest may repeat a coarsely logged sample: not judged)
+#: or its accelerometer 0 on three axes is a logger that stalled or padded: BROAD 02 with every channel held for 2 s
+#: in motion ran at 5.2° inclination and 39.5° heading RMSE with exit 0 (0.39° and 0.70° as recorded), for 10 s at
+#: 30.8°, with 2 s of zeros at 81.5° heading. No sensor repeats a turn bit for bit (a body at rest may repeat a
+#: coarsely logged sample: not judged)
 HELD_S, HELD_TURN = 0.5, 0.1
 
 
 class HeldRows:
     """The longest run of a whole sample (gyro and accelerometer) repeated while its gyro reads a turn
-    (:data:`HELD_TURN`), over the blocks of a log fed in order (:meth:`add`); :meth:`check` refuses one of
-    :data:`HELD_S` or more."""
+    (:data:`HELD_TURN`) or its accelerometer 0 on three axes, over the blocks of a log fed in order (:meth:`add`);
+    :meth:`check` refuses one of :data:`HELD_S` or more."""
 
     def __init__(self):
         self.n, self.last, self.start, self.length = 0, None, 0, 0

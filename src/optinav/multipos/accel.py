@@ -230,7 +230,7 @@ class AccelFit(Result):
     n_distinct: int = field(default=0, metadata={"unit": ""})
     #: why parameters were held, when the model was reduced automatically ("" otherwise)
     note: str = field(default="", metadata={"unit": "-"})
-    #: GA/PSO: how far the search stopped short of its objective's minimum, in std (also in ``message``; "" otherwise)
+    #: GA/PSO: how far the search stopped short of its objective's minimum, in std ("" otherwise)
     search_note: str = field(default="", metadata={"unit": "-"})
     #: GA/PSO: the step from ``theta`` to its objective's minimum (0 for held terms; None for local methods)
     shortfall: np.ndarray | None = field(default=None, metadata={"unit": "raw/(m/s^2) | raw"})
@@ -455,7 +455,7 @@ def fit_accel(
         crlb_std=crlb,
         observability=rep,
         success=bool(res.success),
-        message="; ".join(filter(None, (str(res.message), search_note))),
+        message=str(res.message),
         nfev=int(res.nfev),
         nit=int(res.nit),
         history=np.asarray(res.history, float),

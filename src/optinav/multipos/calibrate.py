@@ -903,7 +903,9 @@ def calibrate(
         quality=quality,
         source=source,
         gates=gate_log,
-        convergence=convergence(fit.success, evaluations=fit.nfev, message=fit.message),
+        convergence=convergence(
+            fit.success, evaluations=fit.nfev, message="; ".join(filter(None, (fit.message, fit.search_note)))
+        ),
     )
 
 
@@ -995,7 +997,7 @@ def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -
             raise SearchStoppedShort(
                 f"the {fit.method.upper()} search stopped short of the minimum of its objective: residual RMS of "
                 f"|a| - g {rms:.3g} m/s^2 where the minimum it was heading for has {near:.3g} "
-                f"({fit.message.split(';')[0]})",
+                f"({fit.message})",
                 "pass more --generations, or --method lm",
             )
     if rms > gates.MAX_RESIDUAL_G * fit.g:

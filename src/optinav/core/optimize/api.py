@@ -165,8 +165,20 @@ def _shortfall(problem: Problem, x: np.ndarray, cost: float) -> np.ndarray | Non
 
 def shortfall_note(shortfall, std, names) -> str:
     """The words for a population search's :attr:`~OptimizeResult.shortfall` against the std it is added to:
-    the parameter it is largest on, in that std, e.g. "stopped 2.1 std short of its objective's minimum on
-    K_zz (added to the std)". ``shortfall``, ``std`` (n,) in the parameters' units; ``names`` their names."""
+    the parameter it is largest on, in that std.
+
+    Parameters
+    ----------
+    shortfall, std : (n,) array_like
+        The shortfall and the std without it [parameter units].
+    names : list of str
+        The parameters' names.
+
+    Returns
+    -------
+    str
+        E.g. "stopped 2.1 std short of its objective's minimum on K_zz (added to the std)".
+    """
     z = np.abs(np.asarray(shortfall, float)) / np.asarray(std, float)
     z = np.where(np.isfinite(z), z, 0.0)
     k = int(np.argmax(z))
