@@ -1011,6 +1011,28 @@ def test_a_logger_that_stalled_in_motion_is_named(tmp_path, capsys, held):
     assert f"rows {a + 1}-" in capsys.readouterr().err
 
 
+def test_a_float_movement_with_nan_scores_the_movement_samples_only(tmp_path, capsys):
+    """movement stored as float with NaN where not moving was read as True everywhere (all 53 240 samples scored,
+    not the 32 280 of the movement phase): NaN is not movement, in memory and streamed."""
+    import h5py
+
+    from optinav.cli.main import main
+
+    p = _present(SHARED / BROAD_TRIAL_02)
+    bad = _broad_copy(p, tmp_path / "movfloat.hdf5")
+    with h5py.File(bad, "r+") as f:
+        m = f["movement"][()].astype(bool)
+        del f["movement"]
+        f["movement"] = np.where(m, 1.0, np.nan)
+    for extra in ([], ["--offline"]):
+        lines = []
+        for path in (p, bad):
+            argv = ["attitude", str(path), "--frame", "ENU", "--reference", *extra, "--out", str(tmp_path / "x.csv")]
+            assert main(argv) == 0
+            lines.append(next(x for x in capsys.readouterr().out.splitlines() if x.startswith("reference:")))
+        assert lines[0] == lines[1] and "(32280 movement samples" in lines[1], lines
+
+
 def test_swapped_triads_of_a_fast_turning_log_are_named(tmp_path, capsys):
     """Trial 29's gyro turns at a median 3.6 rad/s (over 0.3 g as a number): its triads swapped were blamed on
     "gravity removed (a linear-acceleration output)". An accelerometer never reads near zero but in free

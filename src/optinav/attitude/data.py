@@ -101,6 +101,13 @@ def check_broad_shapes(name: str, shapes: dict) -> None:
         )
 
 
+def movement_mask(x) -> np.ndarray:
+    """BROAD's ``movement`` as a (N,) bool mask: a float dataset's NaN rows are not movement (read as bool, NaN is
+    True, and every sample of a trial whose movement held NaN was scored)."""
+    x = np.asarray(x).ravel()
+    return np.nan_to_num(x, nan=0.0) != 0 if x.dtype.kind in "fc" else x.astype(bool)
+
+
 def is_broad(path) -> bool:
     """True for an HDF5 or MAT file (by suffix) holding BROAD's ``imu_gyr`` and ``imu_acc``."""
     p = Path(path)
@@ -201,7 +208,7 @@ def load_broad(path, options=None) -> BroadTrial:
         acc=acc,
         mag=mag,
         q_ref=np.asarray(tab.get("opt_quat"), float) if "opt_quat" in tab.data else np.full((n, 4), np.nan),
-        movement=np.asarray(tab.get("movement")).ravel().astype(bool) if "movement" in tab.data else np.zeros(n, bool),
+        movement=movement_mask(tab.get("movement")) if "movement" in tab.data else np.zeros(n, bool),
         rate_hz=rate,
         name=p.stem,
         gyro_unit=str(broad_declared("gyro_unit", attrs, options) or "rad/s"),

@@ -650,7 +650,7 @@ class _Blocks:
     def _broad(self):
         import contextlib
 
-        from optinav.attitude.data import check_broad_shapes, load_broad
+        from optinav.attitude.data import check_broad_shapes, load_broad, movement_mask
         from optinav.core.rotations import attitude_in_frame
 
         with contextlib.ExitStack() as stack:
@@ -679,7 +679,7 @@ class _Blocks:
                     extra = {
                         # body -> ENU; compared in the estimate's frame (--frame NED was refused)
                         "q_ref": attitude_in_frame(np.asarray(tr.q_ref[s], float), "enu", self.o.frame),
-                        "movement": np.asarray(tr.movement[s]).ravel().astype(bool),
+                        "movement": movement_mask(tr.movement[s]),
                     }
                     if self.mag:
                         m = tr.mag
