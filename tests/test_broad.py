@@ -902,6 +902,16 @@ def test_a_dataset_not_one_row_per_sample_is_named_in_one_line(tmp_path, capsys,
             assert code == 2 and err.count("\n") == 1 and f"bad.hdf5: {key} has shape" in err, err
 
 
+def _attitude_of_csv(tmp_path, capsys, gyr, acc, rate_hz: float) -> tuple[int, str]:
+    """(exit code, stderr) of `optinav attitude` on gyr, acc written as a CSV without a time column (streamed)."""
+    from optinav.cli.main import main
+
+    f = tmp_path / "log.csv"
+    np.savetxt(f, np.column_stack([gyr, acc]), delimiter=",", header="gx,gy,gz,ax,ay,az", comments="")
+    argv = ["--quiet", "attitude", str(f), "--rate", str(rate_hz), "--frame", "ENU", "--out", str(tmp_path / "x.csv")]
+    return main(argv), capsys.readouterr().err
+
+
 @pytest.mark.parametrize(("triad", "k"), [("gyr", 0), ("gyr", 2), ("acc", 1)])
 def test_a_dead_axis_is_named_and_a_noise_free_simulated_one_is_not(tmp_path, capsys, triad, k):
     """BROAD 02 with its gyro's x at 0 in every sample ran at 75.6° inclination RMSE with exit 0 (0.39° as
@@ -909,7 +919,6 @@ def test_a_dead_axis_is_named_and_a_noise_free_simulated_one_is_not(tmp_path, ca
     reads one value throughout while the triad's other axes vary with a sensor's noise is named, in memory and
     streamed; a noise-free simulated yaw (gyro x and y exactly 0) runs."""
     from optinav.attitude.checks import check_imu
-    from optinav.cli.main import main
 
     tr = load_broad(_present(SHARED / BROAD_TRIAL_02))
     gyr, acc = tr.gyr.copy(), tr.acc.copy()
@@ -917,21 +926,8 @@ def test_a_dead_axis_is_named_and_a_noise_free_simulated_one_is_not(tmp_path, ca
     name = "gyro" if triad == "gyr" else "accelerometer"
     with pytest.raises(OptinavError, match=f"{name} axis {'xyz'[k]} reads 0 .* in every one of"):
         check_imu(gyr, acc, np.array([tr.dt]))
-    f = tmp_path / "dead.csv"
-    np.savetxt(f, np.column_stack([gyr, acc]), delimiter=",", header="gx,gy,gz,ax,ay,az", comments="")
-    argv = [
-        "--quiet",
-        "attitude",
-        str(f),
-        "--rate",
-        str(tr.rate_hz),
-        "--frame",
-        "ENU",
-        "--out",
-        str(tmp_path / "x.csv"),
-    ]
-    assert main(argv) == 2
-    assert f"{name} axis {'xyz'[k]} reads 0" in capsys.readouterr().err
+    code, err = _attitude_of_csv(tmp_path, capsys, gyr, acc, tr.rate_hz)
+    assert code == 2 and f"{name} axis {'xyz'[k]} reads 0" in err, err
     n = 5000
     w = np.zeros((n, 3))
     w[:, 2] = 0.5 * np.sin(np.arange(n) * 0.01)
@@ -949,7 +945,6 @@ def test_a_clipped_accelerometer_is_refused_where_it_holds_the_tilt_off(tmp_path
     is refused, in memory and streamed; at ±8 g (0.19 %, 0.60°) and 24's taps at ±4 g (0.09 %, 0.63° as recorded
     0.64°) it is said in a warning."""
     from optinav.attitude.checks import ClippingWarning, check_imu
-    from optinav.cli.main import main
 
     tr = load_broad(_present(BROAD / f"{name}.hdf5"))
     acc = np.clip(tr.acc, -g * 9.80665, g * 9.80665)
@@ -959,21 +954,8 @@ def test_a_clipped_accelerometer_is_refused_where_it_holds_the_tilt_off(tmp_path
     else:
         with pytest.warns(ClippingWarning, match="accelerometer axis . is clipped at"):
             check_imu(tr.gyr, acc, np.array([tr.dt]))
-    f = tmp_path / "clipped.csv"
-    np.savetxt(f, np.column_stack([tr.gyr, acc]), delimiter=",", header="gx,gy,gz,ax,ay,az", comments="")
-    argv = [
-        "--quiet",
-        "attitude",
-        str(f),
-        "--rate",
-        str(tr.rate_hz),
-        "--frame",
-        "ENU",
-        "--out",
-        str(tmp_path / "x.csv"),
-    ]
-    assert main(argv) == (2 if refused else 0)
-    assert "accelerometer axis" in capsys.readouterr().err
+    code, err = _attitude_of_csv(tmp_path, capsys, tr.gyr, acc, tr.rate_hz)
+    assert code == (2 if refused else 0) and "accelerometer axis" in err, err
 
 
 @pytest.mark.parametrize("held", ["last", "zeros"])
@@ -983,7 +965,6 @@ def test_a_logger_that_stalled_in_motion_is_named(tmp_path, capsys, held):
     0.5 s while its gyro reads a turn, or its accelerometer 0 on three axes, is named with its rows, in memory and
     streamed; the nine as recorded pass (the trials' fixture)."""
     from optinav.attitude.checks import check_imu
-    from optinav.cli.main import main
 
     tr = load_broad(_present(SHARED / BROAD_TRIAL_02))
     gyr, acc = tr.gyr.copy(), tr.acc.copy()
@@ -994,21 +975,8 @@ def test_a_logger_that_stalled_in_motion_is_named(tmp_path, capsys, held):
         gyr[a], acc[a] = 0.0, 0.0
     with pytest.raises(OptinavError, match=r"rows \d+-\d+ repeat one whole sample for 2 s"):
         check_imu(gyr, acc, np.array([tr.dt]))
-    f = tmp_path / "stalled.csv"
-    np.savetxt(f, np.column_stack([gyr, acc]), delimiter=",", header="gx,gy,gz,ax,ay,az", comments="")
-    argv = [
-        "--quiet",
-        "attitude",
-        str(f),
-        "--rate",
-        str(tr.rate_hz),
-        "--frame",
-        "ENU",
-        "--out",
-        str(tmp_path / "x.csv"),
-    ]
-    assert main(argv) == 2
-    assert f"rows {a + 1}-" in capsys.readouterr().err
+    code, err = _attitude_of_csv(tmp_path, capsys, gyr, acc, tr.rate_hz)
+    assert code == 2 and f"rows {a + 1}-" in err, err
 
 
 def test_a_float_movement_with_nan_scores_the_movement_samples_only(tmp_path, capsys):
