@@ -252,7 +252,7 @@ class UnitHint:
     rate_hz: float = float("nan")
     #: the factor is only roughly known (a log too short for the 2-s means)
     rough: bool = False
-    #: a few percent (SCALE_WARN to SCALE_FOUND) where the declared gyro holds gravity well: said, not refused
+    #: a few percent (SCALE_WARN or more) that the refusal's gates do not take: said, not refused (:func:`_few_percent`)
     warn: bool = False
 
 
@@ -581,8 +581,8 @@ SCALE_NEAR = 1.1
 #: 285.7), and trial 29 (fast rotation) at 8.5° with it 2 % off. Under 3 % the attitude is off by less than about
 #: the drift itself, and a consumer gyro's own scale or an internal oscillator's rate is often off by 1-2 %
 SCALE_FOUND = 1.03
-#: below SCALE_FOUND, a whole-log factor beyond this ratio of 1 that holds gravity with at most SCALE_WARN_RATIO of
-#: the declared gyro's drift (bias fitted) is said in a warning (the attitude runs as declared): the nine BROAD
+#: a whole-log factor beyond this ratio of 1 (up to SCALE_NEAR) that is not refused and holds gravity with at most
+#: SCALE_WARN_RATIO of the declared gyro's drift (bias fitted) is said in a warning (the attitude runs as declared): the nine BROAD
 #: trials as declared find 0.995-1.008 at 0.67-0.99 of their drift (16, fast translation, 1.022 at 0.77); with their
 #: rate 1.5-3 % off 02, 03 and 33 find 0.36-0.48 (1.4-3.4° inclination RMSE), 24 0.51-0.63, 07 0.40-0.83
 SCALE_WARN, SCALE_WARN_RATIO = 1.0125, 0.6
@@ -1423,10 +1423,9 @@ class HeldRows:
         n = gyr.shape[0]
         if not n:
             return
-        x = np.hstack([gyr, acc])
         same = np.zeros(n, bool)  # row i repeats row i − 1 (NaN never does)
-        same[0] = self.last is not None and bool(np.all(x[0] == self.last))
-        same[1:] = np.all(x[1:] == x[:-1], axis=1)
+        same[0] = self.last is not None and bool(np.all(gyr[0] == self.last[0]) and np.all(acc[0] == self.last[1]))
+        same[1:] = np.all(gyr[1:] == gyr[:-1], axis=1) & np.all(acc[1:] == acc[:-1], axis=1)
         for a, b in mask_runs(same):
             start, rows = (self.start, self.length + b) if a == 0 else (self.n + a - 1, b - a + 1)
             turn, force = float(np.linalg.norm(gyr[b - 1])), float(np.linalg.norm(acc[b - 1]))
@@ -1437,7 +1436,7 @@ class HeldRows:
                 self.start, self.length = start, rows
         if not same[-1]:
             self.start, self.length = self.n + n - 1, 1
-        self.last = x[-1].copy()
+        self.last = (gyr[-1].copy(), acc[-1].copy())
         self.n += n
 
     def check(self, dt: float, noisy) -> None:

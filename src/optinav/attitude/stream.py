@@ -35,14 +35,14 @@ class StreamChecks:
         self._na: list[np.ndarray] = []
         self._ng: list[np.ndarray] = []
         self._tilt: list[tuple[np.ndarray, np.ndarray]] = []  # specific-force sums per TILT_BIN samples
-        self._max = np.full((3, 2), -np.inf)  # per axis, the largest of +ω and of −ω
-        self._acc_max = np.full((3, 2), -np.inf)  # per axis, the largest of +a and of −a (a dead axis)
+        # per triad (gyro, accelerometer) and axis, the largest of +x and of −x (clipping, a dead axis)
+        self._max = np.full((2, 3, 2), -np.inf)
         self._noisy: tuple[np.ndarray, np.ndarray] | None = None
         self._held = _c.HeldRows()  # a whole sample repeated in a turn (a logger that stalled)
         self._level = np.zeros(2, dtype=np.int64)  # samples lying level, body z up and down (frame check)
-        self._gyr_head: list[np.ndarray] = []  # gyro steps spread over the blocks (each axis's quantum)
-        self._acc_head: list[np.ndarray] = []  # and the accelerometer's
-        self._gyr_head_n = 0
+        # per triad, steps between samples spread over the blocks (each axis's quantum) and their count
+        self._head: tuple[list[np.ndarray], list[np.ndarray]] = ([], [])
+        self._head_n = 0
         self.n = 0
         self._mag: list[np.ndarray] = []  # magnetometer rows 0, s, 2s, … (the hard-iron check)
         self._mag_seen, self._mag_stride, self._mag_kept = 0, 1, 0
@@ -91,18 +91,17 @@ class StreamChecks:
         self._ng.append(_c._norm(gyr))
         self._tilt.append(_c.tilt_sums(acc, self.n))
         self._still.append(_c.still_sums(gyr, acc, self.n))  # (the rest offset the unit checks take off, too)
-        self._max[:, 0] = np.maximum(self._max[:, 0], gyr.max(axis=0))
-        self._max[:, 1] = np.maximum(self._max[:, 1], (-gyr).max(axis=0))
-        self._acc_max[:, 0] = np.maximum(self._acc_max[:, 0], acc.max(axis=0))
-        self._acc_max[:, 1] = np.maximum(self._acc_max[:, 1], (-acc).max(axis=0))
+        for t, x in enumerate((gyr, acc)):
+            self._max[t, :, 0] = np.maximum(self._max[t, :, 0], x.max(axis=0))
+            self._max[t, :, 1] = np.maximum(self._max[t, :, 1], (-x).max(axis=0))
         self._held.add(gyr, acc)
         if self._noisy is None:  # the first block's rows: which axes carry a sensor's noise (a dead axis)
             head = slice(0, _c.DEAD_HEAD_ROWS)
             self._noisy = (_c.noisy_axes(gyr[head]), _c.noisy_axes(acc[head]))
-        if self._gyr_head_n < _c.QUANTUM_ROWS:  # steps between samples spread over the blocks: each axis's quantum
-            self._gyr_head.append(_c.axis_steps(gyr, 256))
-            self._acc_head.append(_c.axis_steps(acc, 256))
-            self._gyr_head_n += self._gyr_head[-1].shape[0]
+        if self._head_n < _c.QUANTUM_ROWS:  # steps between samples spread over the blocks: each axis's quantum
+            for head, x in zip(self._head, (gyr, acc)):
+                head.append(_c.axis_steps(x, 256))
+            self._head_n += self._head[0][-1].shape[0]
         self.n += gyr.shape[0]
 
     #: the gyro bias (rad/s) the estimate tracks (:func:`~optinav.attitude.estimators.bias_clip`; None: not judged)
@@ -181,7 +180,7 @@ class StreamChecks:
         self.median_dt = float(np.median(dts))
         del dts
         _c.check_rate(self.median_dt)
-        gm, am = self._max, self._acc_max
+        gm, am = self._max
         if self._noisy is not None:
             _c.check_dead_axes(gm[:, 0], -gm[:, 1], am[:, 0], -am[:, 1], self.n, self._noisy)
             self._held.check(self.median_dt, self._noisy)
@@ -206,10 +205,13 @@ class StreamChecks:
         # pass 2 gathers the unit window and, per axis and sign reaching 1 rad/s, the samples at the extreme
         self._win: list[list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = [[] for _ in self.windows]
         # (and the accelerometer's from ACC_CLIP_MIN)
-        self._clip = {(0, k, j): ([], [], [], []) for k in range(3) for j in range(2) if self._max[k, j] >= 1.0}
-        self._clip.update(
-            {(1, k, j): ([], [], [], []) for k in range(3) for j in range(2) if self._acc_max[k, j] >= _c.ACC_CLIP_MIN}
-        )
+        self._clip = {
+            (t, k, j): ([], [], [], [])
+            for t, least in enumerate((1.0, _c.ACC_CLIP_MIN))
+            for k in range(3)
+            for j in range(2)
+            if self._max[t, k, j] >= least
+        }
         # and the whole log in bins (its time base judged over minutes), when long enough
         self._long_m = (
             _c.long_bin_rows(self.n, self.median_dt, rms_rate) if self.n * self.median_dt >= _c.LONG_MIN_S else 0
@@ -239,7 +241,7 @@ class StreamChecks:
         for (t, k, j), (idx, keys, vals, rows) in self._clip.items():
             x = (gyr, acc)[t][:, k]
             y = x if j == 0 else -x
-            m = (self._max, self._acc_max)[t][k, j]
+            m = self._max[t, k, j]
             at = np.flatnonzero(y >= m - 1e-9 * max(m, 1.0))
             # the values at the extreme and beside it; a block's first and last value serve the runs that cross
             # from one block to the next
@@ -281,9 +283,8 @@ class StreamChecks:
             keys, first = np.unique(np.concatenate(keys), return_index=True)
             vals = np.concatenate(vals)[first]
             idx, rows = np.concatenate(idx), np.concatenate(rows)
-            m = (self._max, self._acc_max)[t][k, j]
-            head = (self._gyr_head, self._acc_head)[t]
-            q = _c.quantum(np.concatenate(head)[:, k]) if head else 0.0
+            m = self._max[t, k, j]
+            q = _c.quantum(np.concatenate(self._head[t])[:, k]) if self._head[t] else 0.0
 
             def held(s, e, idx=idx, rows=rows):
                 r = rows[np.searchsorted(idx, s) : np.searchsorted(idx, e)]
