@@ -879,8 +879,8 @@ def _rest_regression(means, tc, u, gravity: float) -> dict | None:
     n = means.shape[0]
     if n < 8:
         return None
-    x = (tc - tc.mean()) / max(float(np.ptp(tc)), 1e-12)
-    X = np.column_stack([np.ones(n), x, x * x, gravity * u])
+    X = _rest_design(tc, u, gravity)
+    x = X[:, 1]
     XtX_inv = np.linalg.pinv(X.T @ X)
     coef = XtX_inv @ X.T @ means
     dof = n - np.linalg.matrix_rank(X)
@@ -904,6 +904,50 @@ def _rest_regression(means, tc, u, gravity: float) -> dict | None:
         "drift_span": np.ptp(trend, axis=0),
         "drift_significant": drift_chi2 > chi2.ppf(0.999, 2),
     }
+
+
+def _rest_design(tc, u, gravity: float) -> np.ndarray:
+    """Regressors of the rest means (P, 6): 1, x, x² (x the rest's centre time scaled to its span) and ``g·u_k``,
+    the model of :func:`_rest_regression`."""
+    x = (tc - tc.mean()) / max(float(np.ptp(tc)), 1e-12)
+    return np.column_stack([np.ones(tc.size), x, x * x, gravity * np.asarray(u, float)])
+
+
+#: two-sided false-alarm probability of :func:`rest_outlier` over all rests and axes of a session
+REST_OUTLIER_P = 1e-4
+
+
+def rest_outlier(means, sems, tc, u, gravity: float) -> tuple[int, int, float, float] | None:
+    """The rest whose gyro mean the other rests do not predict (a unit that turned slowly about the vertical during
+    a pose, which its accelerometer cannot see, or a bias that jumped): per rest k and axis j the deleted residual
+    ``d = m_kj − X_k·β̂₍k₎`` of the model of :func:`_rest_regression` fitted without rest k (8 rests or more;
+    fewer: their mean alone), studentized by the others' scatter about their fit (at least rest k's own noise
+    ``sems``) and the prediction's leverage; flagged beyond Student's t at :data:`REST_OUTLIER_P` over all rests and
+    axes (Bonferroni). Returns (k, j, d [raw], t) of the largest, or None. ``means``, ``sems`` (P, 3) [raw],
+    ``tc`` (P,) [s], ``u`` (P, 3) unit up directions [-]."""
+    from scipy.stats import t as student
+
+    means, sems = np.asarray(means, float), np.asarray(sems, float)
+    n = means.shape[0]
+    X = _rest_design(np.asarray(tc, float), u, gravity) if n >= 8 else np.ones((n, 1))
+    best = None
+    for k in range(n):
+        o = np.arange(n) != k
+        Xo = X[o]
+        rank = np.linalg.matrix_rank(Xo)
+        dof = int(o.sum()) - rank
+        if dof < 2:
+            return None
+        inv = np.linalg.pinv(Xo.T @ Xo)
+        beta = inv @ Xo.T @ means[o]
+        s2 = np.maximum(((means[o] - Xo @ beta) ** 2).sum(0) / dof, sems[k] ** 2)
+        d = means[k] - X[k] @ beta
+        tk = np.abs(d) / np.sqrt(s2 * (1.0 + float(X[k] @ inv @ X[k])) + sems[k] ** 2)
+        j = int(np.argmax(tk))
+        crit = float(student.isf(REST_OUTLIER_P / (2 * 3 * n), dof))
+        if tk[j] > crit and (best is None or tk[j] / crit > best[3] / best[4]):
+            best = (k, j, float(d[j]), float(tk[j]), crit)
+    return None if best is None else best[:4]
 
 
 def _local_bias_var(sems, w, u, tc, K, bias_instability=None, corr_time: float = float("inf")) -> np.ndarray:
