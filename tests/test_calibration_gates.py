@@ -655,6 +655,19 @@ def test_a_pose_turned_about_the_vertical_is_no_gyro_rest(pose):
         assert np.all(np.abs(r.gyroscope["b"] - b_session) < 4 * r.gyroscope["b_std"]), deg
 
 
+def test_many_rests_the_others_do_not_predict_are_refused(monkeypatch):
+    """More than a third of the poses no rest for the gyro (here every rest the test is asked about) is a session
+    to record again: an error naming one and the option that helps, not a calibration from what is left."""
+    from optinav.multipos import gyro
+
+    s = simulate("18", dwell_s=8, rest_s=5, rng=3)
+    monkeypatch.setattr(gyro, "rest_outlier", lambda means, *a: (0, 2, 0.5, 99.0))
+    with pytest.raises(
+        OptinavError, match=r"7 of 18 static poses are no rest for the gyro \(static pose 7 .*--sections"
+    ):
+        calibrate(s.t, s.acc, s.gyr, g=s.gravity, rng=1)
+
+
 @pytest.mark.parametrize(
     "drop, k, n, want",
     [([0, 1, 4], 0, 6, [0, 3]), ([0, 1, 4], 2, 6, [0, 1, 3]), ([2], 3, 6, [2]), ([3], 3, 6, [2]), ([4], 5, 6, [])],

@@ -920,8 +920,8 @@ REST_OUTLIER_P = 1e-4
 def rest_outlier(means, sems, tc, u, gravity: float) -> tuple[int, int, float, float] | None:
     """The rest whose gyro mean the other rests do not predict (a unit that turned slowly about the vertical during
     a pose, which its accelerometer cannot see, or a bias that jumped): per rest k and axis j the deleted residual
-    ``d = m_kj − X_k·β̂₍k₎`` of the model of :func:`_rest_regression` fitted without rest k (8 rests or more;
-    fewer: their mean alone), studentized by the others' scatter about their fit (at least rest k's own noise
+    ``d = m_kj − X_k·β̂₍k₎`` of the model of :func:`_rest_regression` fitted without rest k (11 rests or more;
+    8-10: without the drift terms; fewer: their mean alone), studentized by the others' scatter about their fit (at least rest k's own noise
     ``sems``) and the prediction's leverage; flagged beyond Student's t at :data:`REST_OUTLIER_P` over all rests and
     axes (Bonferroni). Returns (k, j, d [raw], t) of the largest, or None. ``means``, ``sems`` (P, 3) [raw],
     ``tc`` (P,) [s], ``u`` (P, 3) unit up directions [-]."""
@@ -929,7 +929,10 @@ def rest_outlier(means, sems, tc, u, gravity: float) -> tuple[int, int, float, f
 
     means, sems = np.asarray(means, float), np.asarray(sems, float)
     n = means.shape[0]
-    X = _rest_design(np.asarray(tc, float), u, gravity) if n >= 8 else np.ones((n, 1))
+    X = _rest_design(np.asarray(tc, float), u, gravity)
+    # as many terms as leave the others' scatter a few degrees of freedom: drift and g-sensitivity, then the
+    # g-sensitivity alone, then their mean
+    X = X if n >= 11 else X[:, [0, 3, 4, 5]] if n >= 8 else X[:, :1]
     best = None
     for k in range(n):
         o = np.arange(n) != k
