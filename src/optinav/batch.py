@@ -549,7 +549,7 @@ def _esd_outliers(x: np.ndarray, alpha: float) -> list[int]:
     and at most :data:`LOT_MAX_OUTLIERS` are tested (two units off the same way do not hide each other), each step
     at ``alpha`` over the number of steps. Small lots detect little: among 9 units, with 21 parameters at a 1 %
     lot-wide level, a unit 10 lot std off is flagged about half the time."""
-    from scipy.stats import t as student
+    from optinav.core.distributions import t_isf
 
     idx = np.arange(x.size)
     removed, stats = [], []
@@ -568,7 +568,7 @@ def _esd_outliers(x: np.ndarray, alpha: float) -> list[int]:
         with np.errstate(divide="ignore", invalid="ignore"):
             tval = np.where(vo > 0, dev / np.sqrt(vo * (1.0 + 1.0 / (n - 1))), np.where(dev > 0, np.inf, 0.0))
         j = int(np.argmax(tval))
-        stats.append(tval[j] > student.isf(alpha / (2 * n), n - 2))
+        stats.append(tval[j] > t_isf(alpha / (2 * n), n - 2))
         removed.append(int(keep[j]))
     last = max((k for k, hit in enumerate(stats) if hit), default=-1)
     return removed[: last + 1]
@@ -885,7 +885,7 @@ def _default_workers() -> int:
 
 
 #: what every system's first unit imports lazily in a worker (scipy's optimizers and distributions)
-_WORKER_PRELOAD = ("scipy.optimize", "scipy.stats")
+_WORKER_PRELOAD = ("scipy.optimize", "scipy.special")
 
 
 def _mp_context(preload=()):

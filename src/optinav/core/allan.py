@@ -380,7 +380,7 @@ def allan_deviation_from_angle(
     AllanDeviation
         Arrays (n_tau, k): τ [s], deviation [rate unit].
     """
-    from scipy import stats  # lazily: a bad file is reported before scipy loads
+    from optinav.core import distributions as dist  # lazily: a bad file is reported before scipy loads
 
     if noise != "auto" and noise not in NOISE_ALPHA:
         raise OptinavError(f"unknown noise type {noise!r}", f"use 'auto' or one of {sorted(NOISE_ALPHA)}")
@@ -410,8 +410,8 @@ def allan_deviation_from_angle(
         alpha = np.full(adev.shape, NOISE_ALPHA[noise], dtype=int)
     edf = _edf(n + 1, m[:, None], alpha)
     c = float(confidence)
-    lower = np.sqrt(edf * avar / stats.chi2.ppf(0.5 * (1 + c), edf))
-    upper = np.sqrt(edf * avar / stats.chi2.ppf(0.5 * (1 - c), edf))
+    lower = np.sqrt(edf * avar / dist.chi2_ppf(0.5 * (1 + c), edf))
+    upper = np.sqrt(edf * avar / dist.chi2_ppf(0.5 * (1 - c), edf))
     return AllanDeviation(
         tau=tau,
         adev=adev,
@@ -591,15 +591,15 @@ def noise_parameters_from_allan(
 
 def _chi2_interval(value: np.ndarray, rel_sigma: np.ndarray, confidence: float) -> np.ndarray:
     """(2, k) interval of a deviation-like value read at a point of EDF 1/(2·rel_sigma²)."""
-    from scipy import stats  # lazily: a bad file is reported before scipy loads
+    from optinav.core import distributions as dist  # lazily: a bad file is reported before scipy loads
 
     value, rel = np.asarray(value, float), np.asarray(rel_sigma, float)
     out = np.full((2, value.size), np.nan)
     ok = np.isfinite(value) & np.isfinite(rel) & (rel > 0)
     if np.any(ok):
         edf = 1.0 / (2.0 * rel[ok] ** 2)
-        out[0, ok] = value[ok] * np.sqrt(edf / stats.chi2.ppf(0.5 * (1 + confidence), edf))
-        out[1, ok] = value[ok] * np.sqrt(edf / stats.chi2.ppf(0.5 * (1 - confidence), edf))
+        out[0, ok] = value[ok] * np.sqrt(edf / dist.chi2_ppf(0.5 * (1 + confidence), edf))
+        out[1, ok] = value[ok] * np.sqrt(edf / dist.chi2_ppf(0.5 * (1 - confidence), edf))
     return out
 
 
@@ -989,7 +989,7 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
     AllanNoiseFit
         N [u·√s], B [u], K [u/√s], Q [u·s], R [u/s] with their std (u the rate unit).
     """
-    from scipy import stats  # lazily: a bad file is reported before scipy loads
+    from optinav.core import distributions as dist  # lazily: a bad file is reported before scipy loads
     from scipy.optimize import nnls
 
     if not isinstance(result, AllanDeviation):
@@ -1013,7 +1013,7 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
     A2, E = (adev[:, None] ** 2, edf[:, None]) if one_d else (adev**2, edf)
     k = A2.shape[1]
     basis = _fit_basis(tau, np.asarray(result.m, float))[:, use]
-    z = float(stats.norm.ppf(0.5 * (1 + float(result.confidence))))
+    z = float(dist.norm_ppf(0.5 * (1 + float(result.confidence))))
     coef = np.zeros((len(FIT_TERMS), k))
     cstd = np.full((len(FIT_TERMS), k), np.nan)
     chi2 = np.full(k, np.nan)
@@ -1028,7 +1028,7 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
         if not np.all(np.isfinite(y)) or np.all(y <= 0):
             continue
         c, model, L, chi2[j] = _fit_column(y, e, S, basis, 0.0, iterations, nnls)
-        if chi2[j] * dof > stats.chi2.ppf(1.0 - FIT_MISFIT_P, dof):
+        if chi2[j] * dof > dist.chi2_ppf(1.0 - FIT_MISFIT_P, dof):
             # a significant misfit: the model's own relative error f on the variance, raised until χ²/dof = 1
             lo_f, hi_f = 1e-4, 1.0
             for _ in range(30):

@@ -937,9 +937,9 @@ def _chi2_band(dof: int, n: int, confidence: float) -> tuple[float, float]:
     """Two-sided ``confidence`` band of χ²(dof)/n: the mean of n squared-normal sums over dof/n dimensions."""
     if not (0.0 < confidence < 1.0):
         raise OptinavError(f"confidence must be in (0, 1), got {confidence!r}", "pass e.g. 0.99")
-    from scipy import stats  # deferred, see above
+    from optinav.core import distributions as dist  # deferred, see above
 
-    return (float(stats.chi2.ppf((1 - confidence) / 2, dof) / n), float(stats.chi2.ppf((1 + confidence) / 2, dof) / n))
+    return (float(dist.chi2_ppf((1 - confidence) / 2, dof) / n), float(dist.chi2_ppf((1 + confidence) / 2, dof) / n))
 
 
 # ----------------------------------------------------------------------------------------------------------

@@ -1530,9 +1530,9 @@ MIN_CHI2_PROBABILITY = 1e-6
 def _chi2_too_small(chi2: float, dof: int) -> bool:
     """Whether a reduced χ² ``chi2`` with ``dof`` degrees of freedom is below its :data:`MIN_CHI2_PROBABILITY`
     quantile: residuals far smaller than the noise std they were weighted with."""
-    from scipy import stats
+    from optinav.core.distributions import chi2_cdf
 
-    return bool(stats.chi2.cdf(chi2 * dof, dof) < MIN_CHI2_PROBABILITY)
+    return bool(chi2_cdf(chi2 * dof, dof) < MIN_CHI2_PROBABILITY)
 
 
 def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool, max_dr: float) -> tuple[list[dict], float]:

@@ -334,9 +334,9 @@ def _select_threshold(t, acc, gyro, g, valid, *, window_s, min_duration_s, acc_u
             "thresholds": cands.thresholds,
             "n_intervals": cands.n_intervals,
         }
-    from scipy import stats as _stats  # deferred: a bad input file is reported before scipy loads
+    from optinav.core.distributions import chi2_ppf  # deferred: a bad input file is reported before scipy loads
 
-    limit = np.where(dof > 0, _stats.chi2.ppf(0.99, np.maximum(dof, 1)) / np.maximum(dof, 1), np.inf)
+    limit = np.where(dof > 0, chi2_ppf(0.99, np.maximum(dof, 1)) / np.maximum(dof, 1), np.inf)
     good = ok & ((red <= limit) | (red <= 1.5 * np.nanmin(red)))
     order = sorted(np.flatnonzero(good), key=lambda k: (cands.n_intervals[k], cands.static_time_s[k]))
     best = int(order[-1])

@@ -874,7 +874,7 @@ def _rest_regression(means, tc, u, gravity: float) -> dict | None:
     estimation noise (``g_sigma``) and whether G differs from zero (χ², 9 dof, p < 0.001); the span (3,) raw of the
     time trend over the rests (``drift_span``) and whether it differs from zero (``drift_significant``, χ², 2 dof,
     p < 0.001); None below 8 rests."""
-    from scipy.stats import chi2
+    from optinav.core.distributions import chi2_ppf
 
     n = means.shape[0]
     if n < 8:
@@ -900,9 +900,9 @@ def _rest_regression(means, tc, u, gravity: float) -> dict | None:
         "s2": s2,
         "G": G,
         "g_sigma": g_sigma,
-        "g_significant": bool(stat > chi2.ppf(0.999, 9)) and g_sigma > 0,
+        "g_significant": bool(stat > chi2_ppf(0.999, 9)) and g_sigma > 0,
         "drift_span": np.ptp(trend, axis=0),
-        "drift_significant": drift_chi2 > chi2.ppf(0.999, 2),
+        "drift_significant": drift_chi2 > chi2_ppf(0.999, 2),
     }
 
 
@@ -925,7 +925,7 @@ def rest_outlier(means, sems, tc, u, gravity: float) -> tuple[int, int, float, f
     ``sems``) and the prediction's leverage; flagged beyond Student's t at :data:`REST_OUTLIER_P` over all rests and
     axes (Bonferroni). Returns (k, j, d [raw], t) of the largest, or None. ``means``, ``sems`` (P, 3) [raw],
     ``tc`` (P,) [s], ``u`` (P, 3) unit up directions [-]."""
-    from scipy.stats import t as student
+    from optinav.core.distributions import t_isf
 
     means, sems = np.asarray(means, float), np.asarray(sems, float)
     n = means.shape[0]
@@ -947,7 +947,7 @@ def rest_outlier(means, sems, tc, u, gravity: float) -> tuple[int, int, float, f
         d = means[k] - X[k] @ beta
         tk = np.abs(d) / np.sqrt(s2 * (1.0 + float(X[k] @ inv @ X[k])) + sems[k] ** 2)
         j = int(np.argmax(tk))
-        crit = float(student.isf(REST_OUTLIER_P / (2 * 3 * n), dof))
+        crit = float(t_isf(REST_OUTLIER_P / (2 * 3 * n), dof))
         if tk[j] > crit and (best is None or tk[j] / crit > best[3] / best[4]):
             best = (k, j, float(d[j]), float(tk[j]), crit)
     return None if best is None else best[:4]
