@@ -979,6 +979,54 @@ def test_a_logger_that_stalled_in_motion_is_named(tmp_path, capsys, held):
     assert code == 2 and f"rows {a + 1}-" in err, err
 
 
+@pytest.mark.parametrize("range_dps", [250.0, 500.0])
+def test_a_gyro_whose_readings_wrap_around_at_its_range_is_named(tmp_path, capsys, range_dps):
+    """BROAD 07 (fast rotation, up to 25 rad/s) with its gyro readings wrapped at ±250 °/s, as counts read as the
+    wrong integer type come out, ran at 52° inclination RMSE with exit 0: a sign flip between two samples both
+    near the axis' largest reading is named with its rows, in memory and streamed (the nine as recorded flip at
+    most at 0.16 of their largest, BROAD 24's taps)."""
+    from optinav.attitude.checks import check_imu
+
+    tr = load_broad(_present(BROAD / "07_undisturbed_fast_rotation_B.hdf5"))
+    fs = np.radians(range_dps)
+    gyr = (tr.gyr + fs) % (2 * fs) - fs
+    with pytest.raises(OptinavError, match=r"gyro axis [xyz] jumps from [-+][\d.]+ to [-+][\d.]+ rad/s between rows"):
+        check_imu(gyr, tr.acc, np.array([tr.dt]))
+    code, err = _attitude_of_csv(tmp_path, capsys, gyr, tr.acc, tr.rate_hz)
+    assert code == 2 and f"({range_dps:.4g} deg/s): readings that wrap around" in err, err
+
+
+@pytest.mark.parametrize(("triad", "k", "seconds"), [("gyr", 0, 10.0), ("acc", 2, 10.0), ("gyr", 1, 1.0)])
+def test_an_axis_that_froze_in_motion_is_named(tmp_path, capsys, triad, k, seconds):
+    """BROAD 02 with its gyro's x frozen at one reading for 10 s in motion ran at 27° inclination RMSE with exit 0,
+    its accelerometer's z at 23° (the nine hold an axis at most 10 samples, 35 ms): an axis holding its value far
+    longer than chance gives, while the triad's other axes show motion, is named with its rows, in memory and
+    streamed in blocks that cut the run; a quantized quiet axis at rest and a noise-free simulated yaw run."""
+    from optinav.attitude.checks import StuckAxes, check_imu
+
+    tr = load_broad(_present(SHARED / BROAD_TRIAL_02))
+    gyr, acc = tr.gyr.copy(), tr.acc.copy()
+    x = gyr if triad == "gyr" else acc
+    a = int(np.flatnonzero(np.linalg.norm(gyr, axis=1) > 0.5)[len(gyr) // 3])  # in motion
+    x[a : a + int(seconds * tr.rate_hz), k] = x[a, k]
+    name = "gyro" if triad == "gyr" else "accelerometer"
+    with pytest.raises(OptinavError, match=f"{name} axis {'xyz'[k]} reads .* in rows {a + 1}-.* an axis that froze"):
+        check_imu(gyr, acc, np.array([tr.dt]))
+    code, err = _attitude_of_csv(tmp_path, capsys, gyr, acc, tr.rate_hz)
+    assert code == 2 and f"{name} axis {'xyz'[k]} reads" in err and f"in rows {a + 1}-" in err, err
+    whole, parts = StuckAxes(), StuckAxes()
+    whole.add(gyr, acc)
+    for b in range(0, len(gyr), 777):
+        parts.add(gyr[b : b + 777], acc[b : b + 777])
+    np.testing.assert_array_equal(parts.best, whole.best)
+    np.testing.assert_array_equal(parts.repeats, whole.repeats)
+    # a yaw whose gyro x and y read a bias and noise quantized to 0.01 rad/s (mostly 0.01), or exactly 0: not judged
+    n, rng = 20000, np.random.default_rng(1)
+    for quiet in (np.round(rng.normal(0.01, 0.002, (n, 2)), 2), np.zeros((n, 2))):
+        w = np.column_stack([quiet, 0.5 * np.sin(np.arange(n) * 0.01)])
+        check_imu(w, np.tile([0.0, 0.0, 9.81], (n, 1)) + rng.normal(0.0, 0.02, (n, 3)), np.array([0.01]))
+
+
 def test_a_float_movement_with_nan_scores_the_movement_samples_only(tmp_path, capsys):
     """movement stored as float with NaN where not moving was read as True everywhere (all 53 240 samples scored,
     not the 32 280 of the movement phase): NaN is not movement, in memory and streamed."""

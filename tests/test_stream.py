@@ -724,3 +724,20 @@ def test_csv_blocks_are_the_text_numpy_savetxt_writes(tmp_path):
         csv_writer(tmp_path / "bad.csv", "h", ["%g"] * 3) as write,
     ):
         write(x)
+
+
+@settings(max_examples=30, deadline=None)
+@given(n=st.integers(2, 80), cuts=st.lists(st.integers(1, 79), max_size=6), seed=st.integers(0, 2**16))
+def test_gyro_wraps_fed_in_blocks_equal_the_whole(n, cuts, seed):
+    """checks.Wraps over any split of a log into blocks finds the flip the whole log has, at a block's edge too."""
+    from optinav.attitude.checks import Wraps
+
+    rng = np.random.default_rng(seed)
+    fs = 4.0
+    gyr = (rng.normal(0.0, 3.0, (n, 3)).cumsum(axis=0) + fs) % (2 * fs) - fs
+    whole, parts = Wraps(), Wraps()
+    whole.add(gyr)
+    for a, b in zip([0, *sorted(set(c for c in cuts if c < n))], [*sorted(set(c for c in cuts if c < n)), n]):
+        parts.add(gyr[a:b])
+    for attr in ("peak", "flip", "row", "pair", "n"):
+        np.testing.assert_array_equal(getattr(parts, attr), getattr(whole, attr))

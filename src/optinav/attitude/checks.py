@@ -1341,10 +1341,19 @@ def check_imu(
     check_rate(dt)
     head = slice(0, DEAD_HEAD_ROWS)
     noisy = (noisy_axes(gyr[head]), noisy_axes(acc[head]))
-    check_dead_axes(gyr.max(axis=0), gyr.min(axis=0), acc.max(axis=0), acc.min(axis=0), gyr.shape[0], noisy)
+    # per triad and axis the largest of +x and of −x, as the streamed checks keep them
+    extremes = np.array([[x.max(axis=0), -x.min(axis=0)] for x in (gyr, acc)]).transpose(0, 2, 1)
+    gm, am = extremes
+    check_dead_axes(gm[:, 0], -gm[:, 1], am[:, 0], -am[:, 1], gyr.shape[0], noisy)
     held = HeldRows()
     held.add(gyr, acc)
     held.check(dt, noisy)
+    wraps = Wraps()
+    wraps.add(gyr)
+    wraps.check()
+    stuck = StuckAxes()
+    stuck.add(gyr, acc)
+    stuck.check(dt, extremes, noisy)
     bins, sums = tilt_sums(acc)
     share = gravity_share(bins, sums, dt, na, ng)
     low = (float(np.percentile(na, LOW_PERCENTILE)), float(np.percentile(ng, LOW_PERCENTILE)))
@@ -1451,6 +1460,190 @@ class HeldRows:
                 "logger that stalled, or filled samples it lost with the last one or zeros",
                 "remove those rows (the time column then shows the gap), or record again",
             )
+
+
+#: a gyro axis whose reading flips sign between two samples, both beyond WRAP_SHARE of its largest |reading|, from
+#: WRAP_MIN rad/s (below the smallest common range, 125 °/s): readings that wrap around at the range. BROAD 07 with
+#: its counts wrapped at ±250 °/s ran at 52° with exit 0; the nine trials as recorded flip at ≤ 0.16 of their
+#: largest (24's taps), a wrap at ≥ 0.99. (An accelerometer's taps flip at up to 0.78: not judged.)
+WRAP_SHARE, WRAP_MIN = 0.75, 2.0
+
+
+class Wraps:
+    """The largest sign flip between consecutive gyro samples per axis (the smaller of the two magnitudes) over
+    the blocks of a log fed in order (:meth:`add`); :meth:`check` refuses one that wraps (:data:`WRAP_SHARE`)."""
+
+    def __init__(self):
+        self.n, self.last = 0, None
+        self.peak = np.zeros(3)  # largest |reading| per axis (rad/s)
+        self.flip = np.zeros(3)  # largest flip per axis (rad/s), its first row and the two readings
+        self.row = np.zeros(3, np.int64)
+        self.pair = np.zeros((3, 2))
+
+    def add(self, gyr: np.ndarray) -> None:
+        n = gyr.shape[0]
+        if not n:
+            return
+        a = np.abs(gyr)
+        self.peak = np.fmax(self.peak, np.nanmax(a, axis=0))
+        m = np.minimum(a[1:], a[:-1])
+        m[(gyr[1:] < 0) == (gyr[:-1] < 0)] = 0.0
+        for k in range(3):
+            if self.last is not None and (self.last[k] < 0) != (gyr[0, k] < 0):
+                self._keep(k, min(abs(self.last[k]), a[0, k]), self.n - 1, self.last[k], gyr[0, k])
+            if m.shape[0]:
+                i = int(np.argmax(m[:, k]))
+                self._keep(k, m[i, k], self.n + i, gyr[i, k], gyr[i + 1, k])
+        self.last = gyr[-1].copy()
+        self.n += n
+
+    def _keep(self, k: int, size: float, row: int, a: float, b: float) -> None:
+        if size > self.flip[k]:
+            self.flip[k], self.row[k], self.pair[k] = size, row, (a, b)
+
+    def check(self) -> None:
+        wrapped = (self.flip >= WRAP_SHARE * self.peak) & (self.peak >= WRAP_MIN)
+        if wrapped.any():
+            k = int(np.argmax(wrapped))
+            (a, b), r, top = self.pair[k], int(self.row[k]), float(self.peak[k])
+            raise OptinavError(
+                f"gyro axis {'xyz'[k]} jumps from {a:+.4g} to {b:+.4g} rad/s between rows {r + 1} and {r + 2}, both "
+                f"near its largest reading {top:.4g} rad/s ({np.degrees(top):.4g} deg/s): readings that wrap around at "
+                "the sensor's range (counts read as the wrong integer type, or an offset added in too few bits), no "
+                "turn a body makes",
+                "read the counts as signed integers of the sensor's width before scaling them (or record with a "
+                "larger range)",
+            )
+
+
+#: one axis of a triad holding its value bit for bit this long (s), and for more rows than chance gives at the
+#: share of steps it repeats in the log (p^(rows − 1)·n < STUCK_CHANCE), while the triad's other axes show motion
+#: (the gyro's turn at STUCK_TURN rad/s, the accelerometer's other axes moving over STUCK_FORCE m/s²): an axis that
+#: froze. BROAD 02 with its gyro's x frozen for 10 s in motion ran at 27° with exit 0, its accelerometer's z at
+#: 23°; the nine hold an axis at most 10 samples (35 ms). A quiet axis of a coarsely quantized sensor repeats at
+#: rest, and in a turn about another axis, as often as its share says: not judged; nor a gyro axis at exactly 0
+STUCK_S, STUCK_CHANCE, STUCK_TURN, STUCK_FORCE = 0.5, 1e-6, 0.1, 1.0
+_STUCK_MIN = 16  # rows from which a run is looked at
+
+
+class StuckAxes:
+    """Per axis of the gyro and the accelerometer, the longest run of one value held while the triad's other axes
+    show motion, over the blocks of a log fed in order (:meth:`add`), and how often each axis repeats from one
+    sample to the next; :meth:`check` refuses a run beyond chance (:data:`STUCK_S`, :data:`STUCK_CHANCE`)."""
+
+    def __init__(self):
+        self.n = 0
+        self.repeats = np.zeros((2, 3), np.int64)  # steps where the axis repeats its value
+        self.best = np.zeros((2, 3, 3))  # rows, first row, value of the longest run in motion
+        self.motion = np.zeros((2, 3))  # the other axes' motion in that run (rad/s, m/s²)
+        self.last: list = [None, None]  # per triad: the last row
+        # per triad and axis, the run that reaches the last row: first row, rows, motion (turn; force max, min x2)
+        self.open = np.zeros((2, 3, 6))
+
+    def add(self, gyr: np.ndarray, acc: np.ndarray) -> None:
+        n = gyr.shape[0]
+        if not n:
+            return
+        for t, x in enumerate((gyr, acc)):
+            last = self.last[t]
+            for k in range(3):
+                same = np.empty(n, bool)  # row i holds row i - 1's value
+                same[0] = last is not None and x[0, k] == last[k]
+                np.equal(x[1:, k], x[:-1, k], out=same[1:])
+                self.repeats[t, k] += int(np.count_nonzero(same))
+                self._runs(t, k, x, same)
+            self.last[t] = x[-1].copy()
+        self.n += n
+
+    def _runs(self, t: int, k: int, x: np.ndarray, same: np.ndarray) -> None:
+        n = x.shape[0]
+        o = [j for j in range(3) if j != k]
+        runs = mask_runs(same)
+        carried = bool(runs.shape[0]) and runs[0, 0] == 0 and self.n > 0
+        first = runs[:, 0] - 1  # the run's first row in the block (its value's first sample)
+        rows = runs[:, 1] - first
+        if carried:
+            rows[0] += int(self.open[t, k, 1]) - 1
+        long = np.flatnonzero(rows >= _STUCK_MIN)
+        if long.size:
+            lo, hi = np.maximum(first[long], 0), runs[long, 1]
+            edges = np.column_stack([lo, hi]).ravel()
+            if t == 0:
+                turn = np.hypot(x[:, o[0]], x[:, o[1]])
+                moved = np.maximum.reduceat(turn, edges[:-1] if hi[-1] == n else edges)[::2]
+            else:
+                e = edges[:-1] if hi[-1] == n else edges
+                up = [np.maximum.reduceat(x[:, j], e)[::2] for j in o]
+                dn = [np.minimum.reduceat(x[:, j], e)[::2] for j in o]
+            for i, r in enumerate(long):
+                if t == 0:
+                    m = float(moved[i])
+                    if carried and r == 0:
+                        m = max(m, self.open[t, k, 2])
+                else:
+                    hs, ls = [up[0][i], up[1][i]], [dn[0][i], dn[1][i]]
+                    if carried and r == 0:
+                        hs = [max(hs[0], self.open[t, k, 2]), max(hs[1], self.open[t, k, 3])]
+                        ls = [min(ls[0], self.open[t, k, 4]), min(ls[1], self.open[t, k, 5])]
+                    m = float(max(hs[0] - ls[0], hs[1] - ls[1]))
+                start = self.open[t, k, 0] if carried and r == 0 else self.n + first[r]
+                value = x[max(first[r], 0), k]
+                # (a gyro axis at exactly 0 may be a driver's dead band during a turn about another axis)
+                if m >= (STUCK_TURN, STUCK_FORCE)[t] and rows[r] > self.best[t, k, 0] and (t or value != 0.0):
+                    self.best[t, k] = (rows[r], start, value)
+                    self.motion[t, k] = m
+        # the run that reaches the block's last row stays open for the next block
+        if runs.shape[0] and runs[-1, 1] == n:
+            r = runs.shape[0] - 1
+            a = max(int(first[r]), 0)
+            start = self.open[t, k, 0] if carried and r == 0 else self.n + first[r]
+            seg = x[a:, :]
+            if t == 0:
+                m = float(np.hypot(seg[:, o[0]], seg[:, o[1]]).max())
+                prev = self.open[t, k, 2] if carried and r == 0 else 0.0
+                self.open[t, k] = (start, rows[r], max(m, prev), 0, 0, 0)
+            else:
+                h = [float(seg[:, j].max()) for j in o]
+                lw = [float(seg[:, j].min()) for j in o]
+                if carried and r == 0:
+                    h = [max(h[0], self.open[t, k, 2]), max(h[1], self.open[t, k, 3])]
+                    lw = [min(lw[0], self.open[t, k, 4]), min(lw[1], self.open[t, k, 5])]
+                self.open[t, k] = (start, rows[r], h[0], h[1], lw[0], lw[1])
+        else:
+            v = x[-1, o]
+            turn = float(np.hypot(v[0], v[1]))
+            self.open[t, k] = (
+                (self.n + n - 1, 1, turn, 0, 0, 0) if t == 0 else (self.n + n - 1, 1, v[0], v[1], v[0], v[1])
+            )
+
+    def check(self, dt: float, extremes: np.ndarray, noisy) -> None:
+        """Refuse the longest run held in motion from :data:`STUCK_S` (``dt`` the median step, s) beyond chance, on
+        an axis that carries a sensor's noise (``noisy``: :func:`noisy_axes` of the gyro and the accelerometer) and
+        not at its largest or smallest reading (``extremes`` (2, 3, 2): per triad and axis the largest of +x and
+        of −x): a clip, which the clipping checks judge."""
+        steps = max(self.n - 1, 1)
+        for t, (name, unit, what) in enumerate(
+            (("gyro", "rad/s", "turn up to"), ("accelerometer", "m/s^2", "move over"))
+        ):
+            for k in range(3):
+                rows, start, value = self.best[t, k]
+                rest = steps - (rows - 1)  # the steps outside the run
+                p = max(self.repeats[t, k] - (rows - 1), 0) / max(rest, 1)
+                if (
+                    rows < max(5, STUCK_S / dt)
+                    or rest < DEAD_MIN_ROWS
+                    or not noisy[t][k]
+                    or value in (extremes[t, k, 0], -extremes[t, k, 1])
+                    or (p > 0 and (rows - 1) * np.log(p) + np.log(self.n) > np.log(STUCK_CHANCE))
+                ):
+                    continue
+                a = int(start)
+                raise OptinavError(
+                    f"{name} axis {'xyz'[k]} reads {value:.6g} {unit} in rows {a + 1}-{a + int(rows)} ({rows * dt:.3g} s) "
+                    f"while its other axes {what} {self.motion[t, k]:.3g} {unit}: an axis that froze (elsewhere it "
+                    f"repeats its value in {p:.0%} of the steps)",
+                    "cut those rows out of the log, or record again; no attitude is reliable through them",
+                )
 
 
 #: sample rates (Hz) an IMU log can have: outside, the time column's unit or --rate is wrong

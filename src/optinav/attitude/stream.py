@@ -39,6 +39,8 @@ class StreamChecks:
         self._max = np.full((2, 3, 2), -np.inf)
         self._noisy: tuple[np.ndarray, np.ndarray] | None = None
         self._held = _c.HeldRows()  # a whole sample repeated in a turn (a logger that stalled)
+        self._wraps = _c.Wraps()  # gyro readings that wrap around at the range
+        self._stuck = _c.StuckAxes()  # one axis holding its value in motion
         self._level = np.zeros(2, dtype=np.int64)  # samples lying level, body z up and down (frame check)
         # per triad, steps between samples spread over the blocks (each axis's quantum) and their count
         self._head: tuple[list[np.ndarray], list[np.ndarray]] = ([], [])
@@ -95,6 +97,8 @@ class StreamChecks:
             self._max[t, :, 0] = np.maximum(self._max[t, :, 0], x.max(axis=0))
             self._max[t, :, 1] = np.maximum(self._max[t, :, 1], (-x).max(axis=0))
         self._held.add(gyr, acc)
+        self._wraps.add(gyr)
+        self._stuck.add(gyr, acc)
         if self._noisy is None:  # the first block's rows: which axes carry a sensor's noise (a dead axis)
             head = slice(0, _c.DEAD_HEAD_ROWS)
             self._noisy = (_c.noisy_axes(gyr[head]), _c.noisy_axes(acc[head]))
@@ -184,6 +188,9 @@ class StreamChecks:
         if self._noisy is not None:
             _c.check_dead_axes(gm[:, 0], -gm[:, 1], am[:, 0], -am[:, 1], self.n, self._noisy)
             self._held.check(self.median_dt, self._noisy)
+        self._wraps.check()
+        if self._noisy is not None:
+            self._stuck.check(self.median_dt, self._max, self._noisy)
         ng = np.concatenate(self._ng)
         self._ng = []
         self.peak = float(np.max(ng))
