@@ -1341,8 +1341,7 @@ def check_imu(
     check_rate(dt)
     head = slice(0, DEAD_HEAD_ROWS)
     noisy = (noisy_axes(gyr[head]), noisy_axes(acc[head]))
-    # per triad and axis the largest of +x and of −x, as the streamed checks keep them
-    extremes = np.array([[x.max(axis=0), -x.min(axis=0)] for x in (gyr, acc)]).transpose(0, 2, 1)
+    extremes = np.stack([axis_extremes(gyr), axis_extremes(acc)])
     gm, am = extremes
     check_dead_axes(gm[:, 0], -gm[:, 1], am[:, 0], -am[:, 1], gyr.shape[0], noisy)
     held = HeldRows()
@@ -1369,6 +1368,12 @@ def check_imu(
     whole = lambda: long_time_hint(*whole_log_bins(gu, acc, dts, ng), dt)  # noqa: E731
     check_time_base(windows, whole, gyro_unit, share, axes)
     _check_clipping(gyr, gyro_range, dt, acc)
+
+
+def axis_extremes(x: np.ndarray) -> np.ndarray:
+    """Per axis of ``x`` (n, 3) the largest of +x and of −x (3, 2), column by column: numpy reduces a strided
+    column 8x faster than an (n, 3) array along axis 0 (that took half of :func:`check_imu`'s time)."""
+    return np.array([[x[:, k].max(), -x[:, k].min()] for k in range(x.shape[1])])
 
 
 #: samples from which a triad's axis that reads one value in all of them, while another axis of it varies, is dead
@@ -1434,7 +1439,10 @@ class HeldRows:
             return
         same = np.zeros(n, bool)  # row i repeats row i − 1 (NaN never does)
         same[0] = self.last is not None and bool(np.all(gyr[0] == self.last[0]) and np.all(acc[0] == self.last[1]))
-        same[1:] = np.all(gyr[1:] == gyr[:-1], axis=1) & np.all(acc[1:] == acc[:-1], axis=1)
+        same[1:] = True
+        for x in (gyr, acc):  # (column by column: faster than np.all along axis 1 of an (n, 3) comparison)
+            for k in range(3):
+                same[1:] &= x[1:, k] == x[:-1, k]
         for a, b in mask_runs(same):
             start, rows = (self.start, self.length + b) if a == 0 else (self.n + a - 1, b - a + 1)
             turn, force = float(np.linalg.norm(gyr[b - 1])), float(np.linalg.norm(acc[b - 1]))

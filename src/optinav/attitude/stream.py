@@ -94,8 +94,7 @@ class StreamChecks:
         self._tilt.append(_c.tilt_sums(acc, self.n))
         self._still.append(_c.still_sums(gyr, acc, self.n))  # (the rest offset the unit checks take off, too)
         for t, x in enumerate((gyr, acc)):
-            self._max[t, :, 0] = np.maximum(self._max[t, :, 0], x.max(axis=0))
-            self._max[t, :, 1] = np.maximum(self._max[t, :, 1], (-x).max(axis=0))
+            np.maximum(self._max[t], _c.axis_extremes(x), out=self._max[t])
         self._held.add(gyr, acc)
         self._wraps.add(gyr)
         self._stuck.add(gyr, acc)
