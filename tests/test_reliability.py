@@ -1387,6 +1387,20 @@ def test_report_data_of_another_log_is_refused(tmp_path, capsys, counts_session)
     assert main(["report", str(res), "--data", str(si), "--out", str(tmp_path / "r2")]) == 2
     one_line_error(capsys, "the result was calibrated from raw counts", "not its log")
     assert main(["--quiet", "report", str(res), "--data", str(data), "--out", str(tmp_path / "r3")]) == 0
+    # another unit at the same poses and times: its residuals were 10-20x the result's, shown with exit 0
+    unit2 = tmp_path / "unit2.csv"
+    argv = ["--quiet", "simulate", "accel-multipos", "--out", str(unit2), "--scheme", "18", "--dwell", "8"]
+    assert main(argv + ["--acc-unit", "counts", "--gyro-unit", "deg/s", "--seed", "5"]) == 0
+    capsys.readouterr()
+    assert main(["report", str(res), "--data", str(unit2), "--out", str(tmp_path / "r4")]) == 2
+    one_line_error(capsys, "unit2.csv corrected by the result reads |a| − g =", "× the calibration's own", "--data")
+    # without --data the static intervals are listed with their times, the rest said to need the log (the table
+    # was empty)
+    assert main(["--quiet", "report", str(res), "--out", str(tmp_path / "r5")]) == 0
+    md = (tmp_path / "r5" / "index.md").read_text()
+    rows = [ln for ln in md.splitlines() if ln.startswith("| 1 |") or ln.startswith("| 2 |")]
+    assert rows and all(ln.endswith("| — | — | — | — |") for ln in rows[:2]), rows
+    assert "pass it with --data to list them" in md
 
 
 def test_report_on_the_out_file_and_gyro_out_without_a_gyro(tmp_path, capsys, counts_session):

@@ -78,7 +78,11 @@ def tables(res, poses) -> list[Table]:
             [
                 [k + 1, p["t0"], p["t1"], p["samples"], p["norm_error_mean"], p["norm_std"], p["up"]]
                 for k, p in enumerate(poses)
-            ],
+            ]
+            or [[k + 1, t0, t1, None, None, None, None] for k, (t0, t1) in enumerate(res.static_intervals)],
+            note=""
+            if poses
+            else "The samples, |a| − g and up directions are those of the log: pass it with --data to list them.",
             formats=[None, "{:.2f}", "{:.2f}", None, "{:+.3e}", "{:.3e}", "{:+.3f}"],
         )
     )

@@ -87,6 +87,7 @@ def _check_same_log(res, d, data) -> None:
 
     t = np.asarray(d.t, float)
     a = res.correct_accel(np.asarray(d.acc, float))
+    sq, count = 0.0, 0  # Σ(|a| − g)² and samples over the static intervals
     for k, (t0, t1) in enumerate(np.asarray(res.static_intervals, float)):
         m = (t >= t0) & (t <= t1) & np.all(np.isfinite(a), axis=1)
         if not m.any():
@@ -94,7 +95,9 @@ def _check_same_log(res, d, data) -> None:
                 f"{data} has no samples in static interval {k} ({t0:.6g}–{t1:.6g} s) of the result: not its log",
                 "pass the log the result was calibrated from with --data",
             )
-        med = float(np.median(np.linalg.norm(a[m], axis=1)))
+        norms = np.linalg.norm(a[m], axis=1)
+        sq, count = sq + float(np.sum((norms - res.gravity) ** 2)), count + norms.size
+        med = float(np.median(norms))
         if not 0.5 * G_STANDARD <= med <= 2.0 * G_STANDARD:
             raise OptinavError(
                 f"{data} corrected by the result reads |a| = {med:.4g} m/s² in static interval {k}, not about g: not "
@@ -113,12 +116,23 @@ def _check_same_log(res, d, data) -> None:
                 "base is not the one the result was calibrated with, or it is not its log",
                 "read the log as calibrate did (--rate, --time-unit), or pass the log it was calibrated from",
             )
+    rms = float(np.sqrt(sq / max(count, 1)))
+    if res.residual_rms and rms > FIT_RATIO * res.residual_rms:
+        raise OptinavError(
+            f"{data} corrected by the result reads |a| − g = {rms:.3g} m/s² RMS over its static intervals, "
+            f"{rms / res.residual_rms:.0f}× the calibration's own {res.residual_rms:.3g} m/s²: not the log it was "
+            "calibrated from (another unit's or another session's recording)",
+            "pass the log the result was calibrated from with --data (optinav apply corrects another recording)",
+        )
 
 
 #: a sample of a static interval farther than this (deg) from the interval's pose direction is motion
 STILL_DEG = 10.0
 #: more than this share of such samples: the interval is not a pose of the log read
 STILL_SHARE = 0.05
+#: the corrected |a| − g RMS over the static intervals beyond this multiple of the result's own: another log (the
+#: same log reads 1×; another simulated unit of the same preset at the same poses and times 10-20×)
+FIT_RATIO = 3.0
 
 
 def attitude_report(res, out_dir, data=None, options=None) -> Path:
