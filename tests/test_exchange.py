@@ -369,6 +369,30 @@ def test_a_data_log_given_as_the_calibration_is_named(tmp_path, capsys):
     assert "a data log, not a calibration" in capsys.readouterr().err
 
 
+def test_imu_tk_files_of_a_deg_s_gyro_applied_to_rad_s_data_name_the_units(session, tmp_path, capsys):
+    """imu_tk's files hold no unit: a calibration made from a gyro in deg/s applied to a log whose gyro is in rad/s
+    was refused with "as it would were the data's gyro in rad/s: it is not in the rad/s the calibration was made
+    for" (a helper's finding: it contradicts itself). The unit its scale reads (57.3 raw per rad/s: deg/s) and the
+    data's are named, and the remedy says which to change."""
+    import pandas as pd
+
+    d, data = session
+    res = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "accel", str(data), "--out", str(res)]) == 0
+    tk = (tmp_path / "a.calib", tmp_path / "g.calib")
+    export_calibration(CalibrationResult.from_json(res), "imu_tk", tk[0], gyro_out=tk[1])
+    df = pd.read_csv(data, comment="#")
+    g = ["gx", "gy", "gz"]
+    df[g] = np.radians(df[g])
+    rad = tmp_path / "rad.csv"
+    rad.write_text("# units: t=s acc=counts gyro=rad/s\n" + df.to_csv(index=False))
+    capsys.readouterr()
+    assert main(["apply", str(tk[0]), "--gyro-cal", str(tk[1]), str(rad), "--out", str(tmp_path / "o.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "the calibration holds no unit and its gyro scale, 57." in err and "raw per rad/s, reads raw deg/s" in err
+    assert "data's gyro is in rad/s" in err and "give the data's gyro in deg/s" in err, err
+
+
 @pytest.mark.skipif(
     not (DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").is_file(), reason="imucal data absent"
 )

@@ -269,6 +269,16 @@ def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
         )
     if hint:
         unit = "deg/s" if hint.scale < 1.0 else "rad/s"
+        # an imu_tk file holds no unit: its scale tells the raw unit it reads (57.3 raw per rad/s: deg/s)
+        implied = next((u for u, f in (("deg/s", 180 / np.pi), ("rad/s", 1.0)) if abs(k / f - 1.0) < 0.1), None)
+        if expected is None and not counts and implied and log.gyro_input_unit not in (None, implied):
+            raise OptinavError(
+                f"{Path(result_path).name} applied to {Path(data_path).name}: the calibration holds no unit and its "
+                f"gyro scale, {k:.4g} raw per rad/s, reads raw {implied}, while the data's gyro is in "
+                f"{log.gyro_input_unit}: the corrected gyro does not explain how gravity turns in the body",
+                f"give the data's gyro in {implied} (the unit the calibration was made from), or apply a calibration "
+                f"made from {log.gyro_input_unit} data",
+            )
         raise OptinavError(
             f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain how "
             f"gravity turns in the body, as it would were the data's gyro in {unit}: it is not in the "
