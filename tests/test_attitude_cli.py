@@ -162,6 +162,23 @@ def test_cli_simulate_flight_then_attitude(tmp_path, capsys):
     assert main(["simulate", "flight", "--out", str(tmp_path / "f.npz")]) == 2
 
 
+def test_a_simulated_truth_on_other_times_is_refused(tmp_path, capsys):
+    """STEM.truth.csv was read row for row and its t column ignored: a truth that starts 0.5 s later scored the
+    attitude against the wrong samples with exit 0 (a helper's finding). Its times must match the log's."""
+    data = tmp_path / "flight.csv"
+    assert main(["--quiet", "simulate", "flight", "--kind", "dynamic", "--duration", "10", "--out", str(data)]) == 0
+    args = ["--quiet", "attitude", str(data), "--reference", "--out", str(tmp_path / "a.csv")]
+    assert main(args) == 0
+    truth = tmp_path / "flight.truth.csv"
+    lines = truth.read_text().splitlines()
+    shifted = [lines[0]] + [",".join([repr(float(r.split(",")[0]) + 0.5), *r.split(",")[1:]]) for r in lines[1:]]
+    truth.write_text("\n".join(shifted) + "\n")
+    capsys.readouterr()
+    assert main(args[1:]) == 2
+    err = capsys.readouterr().err
+    assert "flight.truth.csv does not hold t,qw,qx,qy,qz for each log sample (row 1: t = 0.5 s, the log's" in err, err
+
+
 def test_cli_aop_in_radians_declared_degrees_is_named(flight, tmp_path, capsys):
     """An AoP column in rad passed with --aop-unit deg ran to exit 0 with roll/pitch/yaw errors of 37/31/84°
     (only degrees declared rad were checked). Its values never leave ±π/2 "degrees"."""

@@ -342,9 +342,11 @@ class _TruthRows:
         self.path, self.rows = Path(path), 0
         self.frames = (frame_from, frame_to) if frame_from and frame_to else None  # truth's, estimate's
         self._blocks = iter(iter_table(path))
-        self._buf = np.empty((0, 4))
+        self._buf = np.empty((0, 5))
 
-    def take(self, n: int) -> np.ndarray:
+    def take(self, n: int, t: np.ndarray | None = None) -> np.ndarray:
+        """The next ``n`` rows' q; ``t`` (n,) s: the log's times, which the truth's t must match (within half a
+        step: a truth of another rate or start scored the wrong attitude against each sample)."""
         while self._buf.shape[0] < n:
             tab = next(self._blocks, None)
             if tab is None:
@@ -352,8 +354,18 @@ class _TruthRows:
             cols = list(tab.data.values())
             if len(cols) != 5:
                 raise self.mismatch(f"{len(cols)} columns")
-            self._buf = np.vstack([self._buf, np.column_stack([np.asarray(c, float) for c in cols[1:]])])
-        q, self._buf = self._buf[:n], self._buf[n:]
+            self._buf = np.vstack([self._buf, np.column_stack([np.asarray(c, float) for c in cols])])
+        rows, self._buf = self._buf[:n], self._buf[n:]
+        if t is not None and n:
+            half = 0.5 * float(np.median(np.diff(t))) if n > 1 else np.inf
+            off = np.abs(rows[:, 0] - t)
+            bad = np.flatnonzero(~(off <= half))
+            if bad.size and np.isfinite(half):
+                i = int(bad[0])
+                raise self.mismatch(
+                    f"row {self.rows + i + 1}: t = {rows[i, 0]:.6g} s, the log's sample at {t[i]:.6g} s"
+                )
+        q = rows[:, 1:]
         self.rows += n
         if self.frames is not None:
             from optinav.core.rotations import attitude_in_frame
@@ -540,7 +552,7 @@ class _Blocks:
             if w is not None:
                 extra["witness"] = w
             if truth is not None:
-                extra.update(q_ref=truth.take(len(log)), movement=np.ones(len(log), bool))
+                extra.update(q_ref=truth.take(len(log), t), movement=np.ones(len(log), bool))
             yield (row0, t, log.gyr, log.acc, np.diff(t, prepend=first), log.finite, extra)
         if truth is not None:
             truth.finish()
