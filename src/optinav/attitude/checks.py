@@ -1498,7 +1498,7 @@ class Wraps:
         m *= neg[1:] != neg[:-1]  # (only sign flips count)
         for k in range(3):  # (column by column: numpy reduces a strided column 8x faster than along axis 0)
             self.peak[k] = np.fmax(self.peak[k], np.nanmax(a[:, k]))
-            if self.last is not None and (self.last[k] < 0) != (gyr[0, k] < 0):
+            if self.last is not None and np.signbit(self.last[k]) != neg[0, k]:
                 self._keep(k, min(abs(self.last[k]), a[0, k]), self.n - 1, self.last[k], gyr[0, k])
             if n > 1:
                 i = int(np.argmax(m[:, k]))

@@ -797,7 +797,9 @@ def calibrate(
 
         try:
             gc = fit_gyro(drop)
+            n_drop = len(drop)
             gc, drop = _without_flat_topped_turns(fit_gyro, gc, tg, wg, rg, drop, gyro_unit, notes)
+            excluded["flat_topped_turns"] = len(drop) - n_drop
         except OptinavError as exc:
             if rot_names and not (gapped or saturated or n_clipped):
                 # imucal's section list: its six poses alone, with the rotations left out, cannot calibrate the
