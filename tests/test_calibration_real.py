@@ -145,6 +145,25 @@ def test_a_ferraris_rotation_section_cut_inside_the_turn_is_refused(tmp_path, ca
     assert "the turn of z_rot goes on after it ends" in err and "--sections" in err
 
 
+@pytest.mark.parametrize("swap", [("x_p", "y_p"), ("y_a", "z_a")])
+def test_ferraris_sections_swapped_in_the_list_are_named(tmp_path, capsys, swap):
+    """imucal's section list with x_p and y_p swapped was refused as "the six Ferraris poses disagree on g: RMS of
+    |a| - g is 8.84e+03 m/s^2" (a helper's finding): the sections whose gravity lies along another axis than their
+    names say are named."""
+    import json
+
+    sections = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    a, b = swap
+    sections[a], sections[b] = sections[b], sections[a]
+    path = tmp_path / "sections.json"
+    path.write_text(json.dumps(sections))
+    _run(tmp_path, [*EXAMPLE, "--method", "ferraris", "--sections", str(path)], code=2)
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "the sections do not hold the poses their names say: " in err and "give each section the pose" in err, err
+    for nm in swap:
+        assert f"{nm}'s gravity lies along " in err, err
+
+
 @pytest.mark.parametrize(
     "column, limit, stated",
     [("gyr_z", 467.6, None), ("gyr_z", 467.6, "2000"), ("gyr_y", 429.5, None), ("gyr_x", 447.7, None)],

@@ -1425,6 +1425,23 @@ def _gyro_gates(gc, gyro_unit: str) -> list[dict]:
     ]
 
 
+def _misnamed_poses(means: np.ndarray, names: list) -> str | None:
+    """The Ferraris pose sections (``names`` x_p … z_a) whose mean specific force (``means`` (6, 3), raw, less the
+    six poses' mean: their offset) lies along another axis or sign than the name says, in words; None when each
+    lies along its own. imucal's section list with x_p and y_p swapped was refused as "RMS of |a| - g is
+    8.84e+03 m/s^2"."""
+    d = means - means.mean(axis=0)
+    out = []
+    for nm, v in zip(names, d):
+        axis, sign = str(nm)[0], 1.0 if str(nm).endswith("_p") else -1.0
+        k = int(np.argmax(np.abs(v)))
+        if "xyz"[k] != axis or np.sign(v[k]) != sign:
+            out.append(f"{nm}'s gravity lies along {'+' if v[k] > 0 else '-'}{'xyz'[k]}")
+    if not out:
+        return None
+    return "the sections do not hold the poses their names say: " + ", ".join(out)
+
+
 def _turn_angle(angle: float) -> float | None:
     """A turn's angle (deg) as a technician states it: the multiple of 90° within 2 % of ``angle``, else None."""
     r = 90.0 * round(angle / 90.0)
@@ -2188,6 +2205,13 @@ def _ferraris(
     pose_rms = float(np.sqrt(np.mean((fc.acc_static_norm - g) ** 2)))
     if pose_rms > gates.MAX_RESIDUAL_G * g:
         swap = gates.swapped_axis(*(static.pose_means(x, idx[static_idx]) for x in (acc, gyro)))
+        if not swap and (
+            named := _misnamed_poses(static.pose_means(acc, idx[static_idx]), [names[k] for k in static_idx])
+        ):
+            raise OptinavError(
+                f"the six Ferraris poses disagree on g: {named} (sections swapped in the list?)",
+                "give each section the pose it holds (--sections, or the label column)",
+            )
         raise OptinavError(
             f"the six Ferraris poses disagree on g: RMS of |a| - g is {pose_rms:.3g} m/s^2"
             + (f" — {swap}" * bool(swap)),
