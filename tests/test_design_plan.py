@@ -197,6 +197,8 @@ def test_cli_writes_markdown_json_and_figure(tmp_path, capsys):
     text = md.read_text()
     assert text.startswith("# Calibration pose plan: 10 poses (A-optimal)")
     assert text.count("\n| ") >= 10 + 21 and "ppm (scale factor)" in text and "deg/h (bias)" in text
+    # the bias std is the session's (a helper read it against a long-term bias): said beside the table
+    assert "The biases' 1σ is against their mean over the session's rests" in text
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert (
         main(["--quiet", "design", "--poses", "10", "--allan", str(allan), "--target-scale", "200", "--out", str(js)])

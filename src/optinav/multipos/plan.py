@@ -476,6 +476,8 @@ class PosePlan(Result):
             "",
             "## Predicted 1σ (Cramér–Rao bound, white noise, nominal parameters)",
             "",
+            BIAS_AGAINST,
+            "",
             "| sensor | parameter | 1σ | unit |",
             "|---|---|---|---|",
         ]
@@ -494,10 +496,17 @@ class PosePlan(Result):
             lines.append(f"  pose {i + 1:2d}: {w}")
             if i < len(self.turns):
                 lines.append(f"           then {self.turns[i]['words']}")
-        lines.append("predicted 1σ:")
+        lines.append(f"predicted 1σ ({BIAS_AGAINST[0].lower()}{BIAS_AGAINST[1:-1]}):")
         lines += [f"  {a:13s} {b:5s} {c:>10s} {d}" for a, b, c, d in self.std_table()]
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
+
+
+#: what the predicted bias std is against (a helper read the gyro's 1.8 deg/h against a long-term bias off by 7.9)
+BIAS_AGAINST = (
+    "The biases' 1σ is against their mean over the session's rests; against a long-term or run-to-run bias add the "
+    "sensor's bias instability (calibrate's --gyro-bias-instability, --acc-bias-instability)."
+)
 
 
 def _show(s, i: int, sensor: str, g: float) -> tuple[str, str]:
