@@ -126,3 +126,22 @@ def test_simulate_plan_names_a_file_of_the_wrong_kind(tmp_path, capsys):
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and f"--plan {bad}:" in err and why in err, err
         assert "--plan takes the plan.json of optinav design --out plan.json" in err
+
+
+def test_simulate_plan_keeps_the_plans_headings(tmp_path):
+    """simulate --plan kept the plan's up directions and turned each pose 90° in heading from the last, not as the
+    plan says (a helper's finding): the turns the gyro calibration observes were not the plan's. The simulated
+    poses are now the plan's C_b^n, headings too."""
+    import json
+
+    from optinav.cli.main import main
+    from optinav.multipos.design import describe_pose
+    from optinav.multipos.plan import PosePlan
+
+    plan, data = tmp_path / "plan.json", tmp_path / "s.csv"
+    assert main(["--quiet", "design", "--poses", "9", "--dwell", "5", "--out", str(plan)]) == 0
+    assert main(["--quiet", "simulate", "accel-multipos", "--plan", str(plan), "--out", str(data)]) == 0
+    poses = json.loads(data.with_name("s.truth.json").read_text())["poses"]
+    p = PosePlan.from_json(plan)
+    assert poses == [describe_pose(c, frame="enu") for c in p.orientations]
+    assert any("azimuth" in w for w in poses)  # headings of the plan's own, not multiples of 90°

@@ -148,10 +148,11 @@ def run_accel_multipos(args) -> int:
 
     out = output_path(args.out, mark=SIMULATED)
     truth_path(out)
-    scheme, dwell = args.scheme or "paper12", args.dwell or 60.0
+    scheme, dwell, orientations = args.scheme or "paper12", args.dwell or 60.0, None
     if args.plan:
         plan = load_option_result(PosePlan, args.plan, "--plan", "the plan.json of optinav design --out plan.json")
         scheme, dwell = np.asarray(plan.up_dirs, float), args.dwell or float(plan.dwell_s)
+        orientations = np.asarray(plan.orientations, float)  # its headings too: the turns the plan predicts from
     step("simulate")
     stream = SessionStream(
         scheme,
@@ -166,6 +167,7 @@ def run_accel_multipos(args) -> int:
         acc_unit=args.acc_unit,
         gyro_unit=args.gyro_unit,
         jitter=args.jitter,
+        orientations=orientations,
         rng=args.seed,
     )
     remedy = "shorten --dwell/--rest/--transition or lower --rate"

@@ -227,6 +227,10 @@ class SessionStream:
         Nominal counts per rad/s of ``gyro_unit="counts"`` [1/(rad/s)].
     jitter : float
         Timestamp jitter as a fraction of the step [-] (irregular sampling).
+    orientations : (P, 3, 3) array or None
+        C_b^n (ENU) of each pose, e.g. a pose plan's (:class:`~optinav.multipos.plan.PosePlan`), whose up vectors
+        must be ``scheme``'s; None: each pose turned 90° in heading from the last (the turns between the poses are
+        what the gyro calibration observes, so a plan's headings are kept).
     rng : int, Generator or None
         Seed or generator.
 
@@ -255,12 +259,23 @@ class SessionStream:
         acc_counts_per_si: float = 2048 / G_STANDARD,
         gyro_counts_per_si: float = 16.4 / DEG,
         jitter: float = 0.0,
+        orientations=None,
         rng=None,
     ):
         gen = as_rng(rng)
         ups = SCHEMES.get(scheme) if isinstance(scheme, str) else as_float_array(scheme, "scheme", last_dims=(3,))
         if ups is None:
             raise OptinavError(f"unknown scheme {scheme!r}", f"use one of {', '.join(SCHEMES)} or give up vectors")
+        if orientations is not None:
+            orientations = as_float_array(orientations, "orientations")
+            up_of = orientations.transpose(0, 2, 1)[:, :, 2] if orientations.ndim == 3 else None
+            if orientations.shape != (len(ups), 3, 3) or not np.allclose(
+                up_of, ups / np.linalg.norm(ups, axis=1, keepdims=True), atol=1e-6
+            ):
+                raise OptinavError(
+                    f"orientations of shape {orientations.shape} are not the {len(ups)} poses' C_b^n with their up vectors",
+                    "pass one C_b^n (ENU) per pose, each with C_b^nᵀ·[0, 0, 1] the pose's up vector",
+                )
         unit_model = preset(spec) if isinstance(spec, str) else spec
         unit_model = unit_model.draw(gen) if isinstance(unit_model, ImuSpec) else unit_model
         if not isinstance(unit_model, ImuModel):
@@ -273,8 +288,13 @@ class SessionStream:
             unit_model = dataclasses.replace(unit_model, acc=TriadErrors.from_matrix("accel", K, b))
         elif truth != "draw":
             raise OptinavError(f"truth={truth!r} is not understood", "use 'draw' or 'paper'")
-        poses = np.stack(
-            [orientation_for_up(ups[0])] + [orientation_for_up(u, yaw=(k % 4) * np.pi / 2) for k, u in enumerate(ups)]
+        poses = (
+            np.concatenate([orientations[:1], orientations])  # (the initial rest in the first pose)
+            if orientations is not None
+            else np.stack(
+                [orientation_for_up(ups[0])]
+                + [orientation_for_up(u, yaw=(k % 4) * np.pi / 2) for k, u in enumerate(ups)]
+            )
         )
         dwell = np.r_[rest_s, np.full(len(ups), check_positive(dwell_s, "dwell_s"))]
         self.n = int(round((dwell.sum() + transition_s * len(ups)) * self.rate_hz))
@@ -397,7 +417,7 @@ def simulate(scheme="paper12", **options) -> SimulatedSession:
     **options
         The keywords of :class:`SessionStream`: ``spec``, ``dwell_s``, ``rate_hz``, ``transition_s``, ``rest_s``,
         ``lat``, ``height_m``, ``truth``, ``acc_unit``, ``gyro_unit``, ``acc_counts_per_si``,
-        ``gyro_counts_per_si``, ``jitter``, ``rng``.
+        ``gyro_counts_per_si``, ``jitter``, ``orientations``, ``rng``.
 
     Returns
     -------
