@@ -515,6 +515,23 @@ def test_empty_rows_inside_a_turn_widen_its_std(tmp_path, capsys):
     np.testing.assert_allclose(np.diag(r.gyroscope["K"])[1:], np.diag(base.gyroscope["K"])[1:], rtol=1e-9)
 
 
+def test_a_time_gap_that_joins_two_poses_is_named(tmp_path, capsys):
+    """imucal's session with 2 s of samples lost in the move after its first pose (time column kept): the poses
+    on either side became one and the error named only --min-duration (a helper's finding). The gap is named."""
+    import pandas as pd
+
+    df = pd.read_csv(DATA / "example_ferraris_session.csv")
+    t = df.pop("n_samples").to_numpy() / 102.4
+    df.insert(0, "t", t)
+    keep = (t < 13.17) | (t >= 15.13)
+    f = tmp_path / "gap.csv"
+    df[keep].to_csv(f, index=False)
+    _run(tmp_path, ["calibrate", "accel", str(f), *EXAMPLE[5:]], code=2)
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "distinct pose directions" in err and "the log has 1 time gap(s) (the first 1.9" in err, err
+    assert "samples lost in a move join the poses on either side into one" in err
+
+
 def test_default_route_leaves_out_turns_that_lost_samples(tmp_path, capsys):
     """The default route (norm observation + turns): 4 samples lost in a jerky hand turn (t 50.42-50.46 s, time
     in whole ms) moved gyro K_xx by 6 std with exit 0 and no word. Turns whose duration holds more

@@ -679,6 +679,10 @@ def calibrate(
                 f"{exc.cause} — {narrow}",
                 "record poses with each axis both up and down (e.g. ±x, ±y, ±z up; optinav design plans them)",
             ) from None
+        # samples lost in a move join the poses on either side into one interval: a direction goes missing
+        gaps = _time_gap_words(t) if "distinct pose directions" in exc.cause else ""
+        if not short and gaps:
+            raise type(exc)(f"{exc.cause} — {gaps}", "log without losing samples, or record the poses again") from None
         if not short:
             raise
         # a pose held shorter than --min-duration was left out, and may be the direction missing: name it
@@ -686,7 +690,7 @@ def calibrate(
         longest = max(b - a for a, b in short)
         raise type(exc)(
             f"{exc.cause} — {len(short)} still stretch(es) shorter than --min-duration {min_duration_s:g} s were "
-            f"left out ({when})",
+            f"left out ({when})" + (f"; {gaps}" if gaps else ""),
             f"pass --min-duration {max(0.5, np.floor(longest * 2) / 2):g} to take them"
             + (f"; or {exc.remedy}" if exc.remedy else ""),
         ) from None
@@ -1100,6 +1104,20 @@ def _typical_step(t) -> float:
     d = np.diff(t[: min(t.size, 65537)])
     med = float(np.median(d))
     return float(np.mean(d[d <= 3.0 * med]))
+
+
+def _time_gap_words(t) -> str:
+    """'the log has N time gap(s) (the first X s at t = Y s): …' for steps beyond 1.75× the typical one, or ''."""
+    h = _typical_step(t)
+    dt = np.diff(np.asarray(t, float))
+    gaps = np.flatnonzero(dt > 1.75 * h)
+    if not gaps.size:
+        return ""
+    i = int(gaps[0])
+    return (
+        f"the log has {gaps.size} time gap(s) (the first {dt[i]:.3g} s at t = {t[i]:.6g} s): samples lost in a move "
+        "join the poses on either side into one"
+    )
 
 
 def _gap_words(t, ranges, ks) -> str:
