@@ -1211,7 +1211,8 @@ def _plateau_turns(gyro, ranges, drop) -> dict[tuple[int, float], list[int]]:
 
 def _without_flat_topped_turns(fit_gyro, gc, t, gyro, ranges, drop, unit: str, notes: list) -> tuple:
     """The gyro fit ``gc`` again without the turns that top out on an axis's extreme (:func:`_plateau_turns`),
-    one axis and sign at a time, the one whose turns left out make the others fit best first, while that fit is
+    one axis and sign at a time (a group that holds a turn missing gravity by PLATEAU_GAIN× the others' median),
+    the one whose turns left out make the others fit best first, while that fit is
     :data:`PLATEAU_GAIN`× better and K stays determined, with a note; else ``gc`` as it is (a turntable's constant
     rate tops out alike, and fits). ``fit_gyro(drop)`` refits with the turns ``drop`` left out. A simulated gyro
     clipped at 50 °/s before its calibration matrix (no flat top) left K 3-5 % off with exit 0. Returns (fit, the
@@ -1223,7 +1224,13 @@ def _without_flat_topped_turns(fit_gyro, gc, t, gyro, ranges, drop, unit: str, n
             both = [ks for (i, _), ks in groups.items() if i == j]
             if len(both) == 2:
                 groups[j, np.nan] = sorted(set(both[0]) | set(both[1]))
+        # only a group that holds a turn missing gravity by PLATEAU_GAIN× the others' median is refitted without
+        kept = [k for k in range(len(ranges) - 1) if k not in drop]
+        miss = dict(zip(kept, np.abs(np.asarray(gc.transition_residuals, float))))
         for (j, v), ks in groups.items():
+            others = [m for k, m in miss.items() if k not in ks]
+            if not others or max(miss.get(k, 0.0) for k in ks) < PLATEAU_GAIN * float(np.median(others)):
+                continue
             try:
                 alt = fit_gyro(sorted(set(drop) | set(ks)))
             except OptinavError:
