@@ -1342,8 +1342,7 @@ def check_imu(
     head = slice(0, DEAD_HEAD_ROWS)
     noisy = (noisy_axes(gyr[head]), noisy_axes(acc[head]))
     extremes = np.stack([axis_extremes(gyr), axis_extremes(acc)])
-    gm, am = extremes
-    check_dead_axes(gm[:, 0], -gm[:, 1], am[:, 0], -am[:, 1], gyr.shape[0], noisy)
+    check_dead_axes(extremes, gyr.shape[0], noisy)
     held = HeldRows()
     held.add(gyr, acc)
     held.check(dt, noisy)
@@ -1393,24 +1392,21 @@ def noisy_axes(x: np.ndarray) -> np.ndarray:
     return (m1 > 0) & (np.nanmean(d2, axis=0) > 0.5 * m1)
 
 
-def check_dead_axes(gmax, gmin, amax, amin, n: int, noisy) -> None:
+def check_dead_axes(extremes: np.ndarray, n: int, noisy) -> None:
     """Refuse a gyro or accelerometer axis that reads one value in every sample of the log (its largest and smallest
-    equal; ``gmax``, ``gmin``, ``amax``, ``amin`` (3,) per axis, rad/s and m/s²) while another axis of the triad
-    varies with a sensor's noise (``noisy``: (gyro, accelerometer) (3,) bool, :func:`noisy_axes`; a noise-free
+    equal; ``extremes`` (2, 3, 2): per triad and axis the largest of +x and of −x, :func:`axis_extremes`, rad/s and
+    m/s²) while another axis of the triad varies with a sensor's noise (``noisy``: (gyro, accelerometer) (3,) bool, :func:`noisy_axes`; a noise-free
     simulated yaw keeps its gyro's x and y at 0), from :data:`DEAD_MIN_ROWS` samples (``n``): BROAD 02 with its
     gyro's x at 0 ran at 75.6° inclination RMSE with exit 0 (0.39° as recorded), with its accelerometer's y at 0
     at 5.6°."""
     if n < DEAD_MIN_ROWS:
         return
-    for name, hi, lo, unit, loud in (
-        ("gyro", gmax, gmin, "rad/s", noisy[0]),
-        ("accelerometer", amax, amin, "m/s^2", noisy[1]),
-    ):
-        dead = np.asarray(hi) == np.asarray(lo)
+    for name, ext, unit, loud in zip(("gyro", "accelerometer"), extremes, ("rad/s", "m/s^2"), noisy):
+        dead = ext[:, 0] == -ext[:, 1]
         if dead.any() and np.any(np.asarray(loud) & ~dead):
             k = int(np.argmax(dead))
             raise OptinavError(
-                f"{name} axis {'xyz'[k]} reads {float(hi[k]):.6g} {unit} in every one of the {n} samples while its "
+                f"{name} axis {'xyz'[k]} reads {float(ext[k, 0]):.6g} {unit} in every one of the {n} samples while its "
                 "other axes vary: a dead axis, or a column that is not the sensor's",
                 "check the columns (--columns) and the sensor; no attitude is reliable without that axis",
             )
@@ -2905,7 +2901,7 @@ def check_mag_lag(bins: np.ndarray, sums: np.ndarray, h: float) -> None:
     ``h`` s a bin; not judged where the field turns too little or the gyro explains too little of it at any lag."""
     bins, sums = merge_bins(np.asarray(bins), np.asarray(sums, float))
     with np.errstate(all="ignore"):
-        s0, e0, turned = mag_gyro_scale(bins, sums, h)
+        _, e0, turned = mag_gyro_scale(bins, sums, h)
         if not (np.isfinite(e0) and turned >= MAG_SCALE_TURN):
             return
         best = (e0, 0)

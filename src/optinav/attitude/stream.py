@@ -183,9 +183,8 @@ class StreamChecks:
         self.median_dt = float(np.median(dts))
         del dts
         _c.check_rate(self.median_dt)
-        gm, am = self._max
         if self._noisy is not None:
-            _c.check_dead_axes(gm[:, 0], -gm[:, 1], am[:, 0], -am[:, 1], self.n, self._noisy)
+            _c.check_dead_axes(self._max, self.n, self._noisy)
             self._held.check(self.median_dt, self._noisy)
         self._wraps.check()
         if self._noisy is not None:

@@ -222,6 +222,7 @@ def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
     rad/s; silent when too little turns): a log in rad/s corrected by a calibration made for deg/s read 57 times
     too small with exit 0 (the calibration's bias, in its own unit, is no multiple of the data's)."""
     from optinav.attitude.checks import gyro_unit_hint, unit_error
+    from optinav.core.units import factor
 
     if log.t is None or log.t.size < 3:
         return
@@ -270,7 +271,7 @@ def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
     if hint:
         unit = "deg/s" if hint.scale < 1.0 else "rad/s"
         # an imu_tk file holds no unit: its scale tells the raw unit it reads (57.3 raw per rad/s: deg/s)
-        implied = next((u for u, f in (("deg/s", 180 / np.pi), ("rad/s", 1.0)) if abs(k / f - 1.0) < 0.1), None)
+        implied = next((u for u in ("deg/s", "rad/s") if abs(k * factor(u) - 1.0) < 0.1), None)
         if expected is None and not counts and implied and log.gyro_input_unit not in (None, implied):
             raise OptinavError(
                 f"{Path(result_path).name} applied to {Path(data_path).name}: the calibration holds no unit and its "

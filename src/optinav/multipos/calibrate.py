@@ -1272,18 +1272,19 @@ def _merge_turns(drop, k: int, n: int) -> list[int]:
 
 def _turning_rests(t, gyro, ranges, up, drop, g: float, unit: str, notes: list, gyr_clock=None) -> tuple:
     """The indices of the static poses (``ranges`` (P, 2), ``up`` (P, 3)) whose gyro mean the others predict, and
-    the turns to leave out (``drop``) renumbered for them: a rest the others do not (:func:`gyro.rest_outlier`) is left out with a note, its turns
-    in and out joined (the gyro integrates whatever moved in between), and the test is made again. A slow turn about
+    the turns to leave out (``drop``) renumbered for them: a rest the others do not (:func:`gyro.rest_outlier`) is
+    left out with a note, its turns in and out joined (the gyro integrates whatever moved in between), and the
+    test is made again. A slow turn about
     the vertical during a pose (0.5 °/s for 60 s in one of 12) moved the bias 38 std, exit 0: the accelerometer
     cannot see it. More than a third of the rests, or fewer than :data:`gyro.MIN_TRANSITIONS` + 1 left: an error."""
     from . import gyro as gyro_cal
 
     tg, wg, rg = _on_own_clock(t, gyro, ranges, gyr_clock)
+    means, sems, _ = gyro_cal._stats(wg, rg)
+    tc = np.array([tg[a:b].mean() for a, b in rg])
     keep = np.arange(len(ranges))
     while keep.size > gyro_cal.MIN_TRANSITIONS + 1:
-        means, sems, _ = gyro_cal._stats(wg, rg[keep])
-        tc = np.array([tg[a:b].mean() for a, b in rg[keep]])
-        hit = gyro_cal.rest_outlier(means, sems, tc, up[keep], g)
+        hit = gyro_cal.rest_outlier(means[keep], sems[keep], tc[keep], up[keep], g)
         if hit is None:
             break
         k, j, d, z = hit

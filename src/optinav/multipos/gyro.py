@@ -921,8 +921,8 @@ def rest_outlier(means, sems, tc, u, gravity: float) -> tuple[int, int, float, f
     """The rest whose gyro mean the other rests do not predict (a unit that turned slowly about the vertical during
     a pose, which its accelerometer cannot see, or a bias that jumped): per rest k and axis j the deleted residual
     ``d = m_kj − X_k·β̂₍k₎`` of the model of :func:`_rest_regression` fitted without rest k (11 rests or more;
-    8-10: without the drift terms; fewer: their mean alone), studentized by the others' scatter about their fit (at least rest k's own noise
-    ``sems``) and the prediction's leverage; flagged beyond Student's t at :data:`REST_OUTLIER_P` over all rests and
+    8-10: without the drift terms; fewer: their mean alone), studentized by the others' scatter about their fit
+    (at least rest k's own noise ``sems``) and the prediction's leverage; flagged beyond Student's t at :data:`REST_OUTLIER_P` over all rests and
     axes (Bonferroni). Returns (k, j, d [raw], t) of the largest, or None. ``means``, ``sems`` (P, 3) [raw],
     ``tc`` (P,) [s], ``u`` (P, 3) unit up directions [-]."""
     from optinav.core.distributions import t_isf
