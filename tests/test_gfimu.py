@@ -104,7 +104,7 @@ def test_rate_methods_exact_and_noisy():
     m = coning_motion(20.0, 0.01)
     f = arr.outputs(m.A, m.wdot, m.omega)
     # noise-free: integration error is the trapezoid error O(dt²·ω̈); the quadratic method is exact
-    for method, tol in (("integration", 2e-4), ("quadratic", 1e-5), ("gauss-newton", 5e-3)):
+    for method, tol in (("integration", 2e-4), ("quadratic", 1e-5), ("gauss-newton", 2e-4)):
         w = solve_rate(arr, f, m.t, m.omega[0], method)
         assert np.abs(w - m.omega).max() < tol, method
     # with 1e-4 m/s² noise the integration error is a random walk: σ_ω̇·√(T·dt)
@@ -116,6 +116,37 @@ def test_rate_methods_exact_and_noisy():
     assert np.abs(w[-1] - m.omega[-1]).max() < 4 * s_wd * np.sqrt(20.0 * 0.01)
     wq = solve_rate(arr, fn, m.t, m.omega[0], "quadratic")
     assert np.sqrt(np.mean((wq - m.omega) ** 2)) < 0.05
+
+
+def _smooth_motion(start: str, seconds: float = 60.0, dt: float = 0.01):
+    """t (s), ω (rad/s), ω̇ (rad/s²), A (m/s²) of a smooth rate at 0.2 Hz from rest or about a 2 rad/s spin."""
+    t = np.arange(0.0, seconds, dt)
+    W = 2 * np.pi * 0.2
+    if start == "spin":
+        wx, wdx = 2.0 + 0.5 * np.sin(W * t), 0.5 * W * np.cos(W * t)
+    else:
+        wx, wdx = 0.5 * (1 - np.cos(W * t)), 0.5 * W * np.sin(W * t)
+    om = np.column_stack([wx, 0.3 * np.sin(2 * W * t), 0.4 * (1 - np.cos(W * t))])
+    wd = np.column_stack([wdx, 0.6 * W * np.cos(2 * W * t), 0.4 * W * np.sin(W * t)])
+    A = np.column_stack([0.5 * np.sin(0.3 * t), 9.80665 * np.cos(0.1 * t), 9.80665 * np.sin(0.1 * t)])
+    return t, om, wd, A
+
+
+@pytest.mark.parametrize("start", ["rest", "spin"])
+def test_gauss_newton_keeps_the_rates_branch_on_a_calibrated_geometry(start):
+    """A calibrated (irregular) cylinder10 at 1e-5 m/s² noise, 60 s of a smooth rate from rest through ±0.3–1
+    rad/s, or about a 2 rad/s spin: the Gauss–Newton rate jumped onto the mirrored branch (ω → −ω, 2 rad/s off)
+    near ω ≈ 0 and stayed there, exit 0, and was 0.03–0.12 rad/s off about the spin where the quadratic terms
+    hardly see ωx; now within a few 1e-4 rad/s of the truth (the integration method: 5e-4 from rest, 0.012 about
+    the spin)."""
+    rng = np.random.default_rng(2)
+    arr = perturb(builtin(), InstallationErrors.random(10, rng=rng))
+    arr = AccelerometerArray(arr.positions, arr.directions, np.full(10, 1e-5))
+    t, om, wd, A = _smooth_motion(start)
+    f = arr.outputs(A, wd, om) + rng.normal(0, 1e-5, (t.size, 10))
+    w = solve_rate(arr, f, t, om[0], "gauss-newton")
+    err = np.abs(w - om)[t > 1.0].max(axis=0)
+    assert np.all(err < 1e-3), err
 
 
 @pytest.mark.parametrize("geometry", ["nominal", "perturbed"])
