@@ -10,7 +10,7 @@ import numpy as np
 
 from optinav.core.progress import step
 from optinav.errors import OptinavError
-from optinav.gfimu.array import AccelerometerArray, builtin, identifiability
+from optinav.gfimu.array import AccelerometerArray, builtin, identifiability, quadratic_products
 from optinav.gfimu.turntable import TurntableCalibration, calibrate, g_unit, read_cases
 
 
@@ -132,11 +132,13 @@ LEFT_OUT_FIT = 3.0
 SUSPECT_MISFIT = 5.0
 
 
-def _check_fit(residual_rms, sigma, data_path, culprit=None) -> None:
+def _check_fit(residual_rms, sigma, data_path, culprit=None, refit=None, method: str = "integration") -> None:
     """The array's outputs must fit the calibrated geometry (the model's residual per output against the noise the
     calibration measured): two columns swapped gave a plausible-looking wrong rate until it diverged. ``culprit``
     (called only on a misfit beyond :data:`SUSPECT_MISFIT`) gives the output whose removal lets the others fit
-    (:func:`_culprit`): named beyond :data:`MAX_MISFIT`, and refused from SUSPECT_MISFIT on."""
+    (:func:`_culprit`): named beyond :data:`MAX_MISFIT`, and refused from SUSPECT_MISFIT on. ``refit`` (called
+    first) gives the misfit of the method's rate and of the Gauss–Newton rate on the same epochs
+    (:func:`_refit`): where the latter fits, the method's rate drifted, not a sensor."""
     if residual_rms is None or sigma is None:
         return
     sigma = np.asarray(sigma, float)
@@ -145,6 +147,15 @@ def _check_fit(residual_rms, sigma, data_path, culprit=None) -> None:
     ratio = float(np.median(residual_rms / sigma))
     if ratio <= SUSPECT_MISFIT:
         return
+    # at a 2 rad/s spin the integration's rate drifted 0.012 rad/s: 16x the noise, and a sensor was blamed
+    again = refit() if refit is not None else None
+    if again is not None and again[1] <= LEFT_OUT_FIT < SUSPECT_MISFIT < again[0]:
+        raise OptinavError(
+            f"the {method} method's rate drifted off the outputs of {Path(data_path).name}: with it the rigid-body "
+            f"model leaves {again[0]:.3g}× the noise measured at calibration, with the Gauss–Newton rate on the same "
+            f"epochs {again[1]:.3g}× (the outputs fit the calibrated geometry)",
+            "use --rate-method gauss-newton (or check --omega0, the rate at the log's first sample)",
+        )
     # the least-squares residual of one faulty output spreads onto the others (and through the rate onto all):
     # the output left out is named, not the largest residual (a bias on f5 was named f6)
     best = culprit() if culprit is not None else None
@@ -167,6 +178,30 @@ def _check_fit(residual_rms, sigma, data_path, culprit=None) -> None:
 #: the leave-one-out solves of :func:`_culprit` take at most this many epochs of a block (the rate methods are
 #: Python loops, ≈ 1 s per 10⁴ epochs: ten solves of a 200 000-row block took minutes)
 CULPRIT_EPOCHS = 2000
+
+
+def _refit(array, f, t, omega, method: str, sigma) -> tuple[float, float] | None:
+    """(the method's misfit, the Gauss–Newton rate's) — median over the outputs of the residual RMS over ``sigma``
+    (N,) m/s² — on the :data:`CULPRIT_EPOCHS` epochs up to the worst fitted one of the block ``f`` (T, N) m/s² at
+    ``t`` (T,) s, whose rate the method gave as ``omega`` (T, 3) rad/s; the filter starts from the method's rate
+    there. None for the Gauss–Newton method itself."""
+    from optinav.gfimu.solve import MotionSolver
+
+    if method == "gauss-newton":
+        return None
+    sigma = np.asarray(sigma, float)
+    fq = f - quadratic_products(omega) @ array.H_quad.T
+    wts = array.weights()
+    P = np.linalg.pinv(array.H_lin * wts[:, None]) * wts[None, :]
+    res = (fq - (fq @ P.T) @ array.H_lin.T) / sigma
+    k = int(np.argmax(np.sum(res * res, axis=1)))
+    a = max(0, k + 1 - CULPRIT_EPOCHS)
+    mine = float(np.median(np.sqrt(np.mean(res[a : k + 1] ** 2, axis=0))))
+    solver = MotionSolver(array, omega[a], "gauss-newton")
+    with np.errstate(over="ignore", invalid="ignore"):
+        solver(f[a : k + 1], t[a : k + 1])
+    theirs = float(np.median(solver.residual_rms / sigma))
+    return (mine, theirs) if np.isfinite(theirs) else None
 
 
 def _culprit(array, f, t, state, method: str, sigma) -> tuple[int, float] | None:
@@ -246,6 +281,8 @@ def apply_file(result_path, data_path, out, options: GfimuApplyOptions | None = 
                 res.sigma,
                 data_path,
                 lambda: _culprit(solver.array, f, tt, state, o.rate_method, res.sigma),  # noqa: B023 (called here)
+                lambda: _refit(solver.array, f, tt, m.omega, o.rate_method, res.sigma),  # noqa: B023 (called here)
+                o.rate_method,
             )
             write(np.column_stack([m.t, m.A, m.omega, m.wdot]))
         if solver.rows < 2:  # as the whole-log solve: a rate needs two epochs (the file is not written)
