@@ -10,7 +10,7 @@ from optinav.errors import OptinavError
 from optinav.rins.calibrate import calibrate, observability, prepare
 from optinav.rins.io import read_rins, write_rins
 from optinav.rins.model import nonorth_dcm, residual_jacobian, residuals, sensor_attitude, vehicle_attitude
-from optinav.rins.simulate import simulate
+from optinav.rins.simulate import PAPER_TABLE3, simulate
 
 P_TRUE = np.array([1.0, -2.0, 3.0, -1.0, 2.0, 4.0]) * 1e-4
 SHORT = dict(scheme="dual4", align_s=60.0, dwell_s=10.0, move_s=5.0, rate_hz=100.0)
@@ -587,3 +587,37 @@ def test_a_frozen_encoder_during_the_first_move_is_not_called_a_unit():
         _err(frozen, r"while both encoders report rest: an encoder channel is frozen or missing")
     deg = dataclasses.replace(base, dtheta=np.degrees(base.dtheta))  # a unit scales every sample alike
     _err(deg, r"the gyro increments are not in rad \(degrees read ×57\.3")
+
+
+def test_encoders_wrapped_to_plus_minus_pi_are_named_a_wrap():
+    """Wrapped to (−π, π] the encoders rest at 0 and jump by ±2π only where a 180° move's noise crosses ±π: the
+    rest looked fine and the error blamed the gyro columns ('move 2 (−360°) the gyros turn 6.09e-09×')."""
+    base = simulate(P_TRUE, rng=2, **SHORT)
+    w = lambda a: np.mod(a + np.pi, 2 * np.pi) - np.pi  # noqa: E731
+    wrap = dataclasses.replace(base, alpha=w(base.alpha), beta=w(base.beta))
+    _err(wrap, r"^alpha \(inner encoder\) jumps by -?6\.283 rad at row \d+, a wrap of 2π.*unwrap the encoder columns")
+
+
+def test_latitude_off_by_less_than_2deg_is_refused_the_right_one_passes():
+    """A latitude 1.5° off passed the old 2° floor with exit 0 (on a 16-position session it moved θz + ηz by 8σ);
+    the gyros measure it within 5σ of their noise and a 0.01 °/h bias (0.2° here). The right latitude passes and
+    moves no combination by a std."""
+    d = simulate(P_TRUE, rng=3, **SHORT)
+    for off in (1.5, -0.5):
+        _err(dataclasses.replace(d, lat=d.lat + np.radians(off)), r"the latitude [\d.]+° disagrees with the 28\.")
+    r = calibrate(d)
+    lat = r.options["latitude"]
+    assert abs(lat["measured_deg"] - 28.2) < 3 * lat["measured_std_deg"] and lat["shift_sigma"] < 1
+
+
+def test_latitude_within_the_gyros_reach_is_refused_where_it_moves_the_result():
+    """On a 16-position session of 960 s a latitude 0.15° off moves θz + ηz by about 1.5σ, yet it is within the
+    5σ (0.19°) the gyros' noise and a navigation-grade bias allow before the fit: the fit's own sensitivity
+    refuses it."""
+    d = simulate(PAPER_TABLE3, rng=1, align_s=300, dwell_s=50, rate_hz=100.0)
+    r = calibrate(d)
+    meas = np.radians(r.options["latitude"]["measured_deg"])
+    _err(
+        dataclasses.replace(d, lat=meas + np.radians(0.15)),
+        r"disagrees with the 28\.\d+° ± 0\.039°.*moves theta_z \+ eta_z by 1\.\d× its std.*--lat",
+    )

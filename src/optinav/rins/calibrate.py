@@ -31,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import time
+import warnings
 from dataclasses import field
 from typing import Any
 
@@ -65,9 +66,17 @@ from optinav.rins.model import (
     residuals,
     sensor_attitude,
 )
-from optinav.core.rotations import dcm_from_quat
+from optinav.core.rotations import dcm_from_quat, dcm_from_rotvec
 from optinav.rins.io import rins_source
-from optinav.rins.process import MOTION_STEP, Alignment, motion_mask, strapdown_blocks, survey
+from optinav.rins.process import (
+    MOTION_STEP,
+    NAV_GYRO_BIAS,
+    Alignment,
+    latitude_sigma,
+    motion_mask,
+    strapdown_blocks,
+    survey,
+)
 
 __all__ = ["METHODS", "RinsCalibration", "calibrate", "prepare", "observability", "attitude_errors"]
 
@@ -897,6 +906,62 @@ def _still_rms(prep: Prepared, e) -> float | None:
     return float(np.sqrt(np.mean(e[keep] ** 2))) if keep.any() else None
 
 
+#: declared latitudes within this many 1σ of the measured one (noise and :data:`NAV_GYRO_BIAS`) are warned about,
+#: not refused, when they would move the result by more than its std: a navigation-grade bias tilts the measured
+#: latitude that far, and which of the two is off the recording cannot tell
+LAT_WARN_SIGMA = 3.0
+
+
+def latitude_shift(prep, p, V, JV, d: float) -> np.ndarray:
+    """Change of the fitted angles ``p`` (rad, (6,)) were the latitude ``d`` (rad) from the declared one,
+    linearized: the strapdown then removes an Earth rate off by ``d·∂ω_ie/∂φ``, which turns every ``C_s^n`` about
+    that fixed ENU vector by its integral since the navigation start. ``JV``: the residual Jacobian on ``V``."""
+    phi = prep.align.lat
+    dw = _earth.WGS84.omega_ie * np.array([0.0, -np.sin(phi), np.cos(phi)]) * d
+    turn = dcm_from_rotvec(np.outer(prep.t - prep.t[0], -dw))  # sign checked against refits
+    cs, a, b = prep.c_s_n, prep.alpha, prep.beta
+    dr = residuals(turn @ cs, a, b, p) - residuals(cs, a, b, p)
+    return -V @ np.linalg.lstsq(JV, dr, rcond=None)[0]
+
+
+def _latitude_gate(prep, p, V, JV, C, cnames, stds) -> dict | None:
+    """Refuse (one line) a declared latitude the gyros contradict beyond :data:`LAT_WARN_SIGMA` where the
+    difference would move a combination by more than its std; warn where it would but a navigation-grade bias
+    explains it. Returns what was measured (deg, and the largest move in std) or None when not measured."""
+    al = prep.align
+    if not np.isfinite(al.lat_measured):
+        return None
+    d = al.lat_measured - al.lat
+    sig = latitude_sigma(al.lat_measured_sd)
+    moved = np.abs(C @ latitude_shift(prep, p, V, JV, d)) / np.maximum(stds, 1e-300)
+    k = int(np.argmax(moved))
+    out = {
+        "declared_deg": float(np.degrees(al.lat)),
+        "measured_deg": float(np.degrees(al.lat_measured)),
+        "measured_std_deg": float(np.degrees(sig)),
+        "shift_sigma": float(moved[k]),
+    }
+    if moved[k] <= 1.0:
+        return out
+    what = (
+        f"the latitude {np.degrees(al.lat):.5g}° disagrees with the {np.degrees(al.lat_measured):.5g}° ± "
+        f"{np.degrees(sig):.2g}° (1σ: gyro noise and a {np.degrees(NAV_GYRO_BIAS) * 3600:g} °/h bias) the gyros "
+        f"measure from the Earth rate at rest, and the difference moves {cnames[k]} by {moved[k]:.2g}× its std"
+    )
+    if abs(d) > LAT_WARN_SIGMA * sig:
+        raise OptinavError(
+            what,
+            f"check --lat (north positive) or the file's lat_deg; if it is right, a gyro bias of about "
+            f"{abs(d) * np.degrees(_earth.WGS84.omega_ie) * 3600:.2g} °/h tilts the Earth rate the gyros see",
+        )
+    warnings.warn(
+        f"{what}, within what a navigation-grade gyro bias explains: if --lat is right the result stands, "
+        "if it is off by that much the result is biased; check --lat",
+        stacklevel=3,
+    )
+    return out
+
+
 def _quality_gates(method, p, V, C, cnames, res, e_after, prep) -> list[dict]:
     """A fit that did not converge, an implausible angle or a residual far above the gyro noise ends in a
     one-line error instead of a result (issue 13: no wrong answer with exit 0); else their outcomes."""
@@ -1060,6 +1125,12 @@ def calibrate(
         # where the swarm stopped short of its objective's minimum, on the observable combinations (gauge-fixed)
         d = gauge_fixed(p_raw + res.shortfall, rep0.null_space) - p
     cov = cov_noise + cov_sys + np.outer(d, d)
+    lat_check = None
+    if method != "none":
+        std = np.sqrt(np.maximum(np.einsum("ki,ij,kj->k", C, cov, C), 0.0))
+        lat_check = _latitude_gate(prep, p, V, J @ V, C, cnames, std)
+        if lat_check is not None:
+            info = {**info, "latitude": lat_check}
     combos, angles, stds = [], {}, {}
     for c, nm in zip(C, cnames):
         sd = float(np.sqrt(max(c @ cov @ c, 0.0)))

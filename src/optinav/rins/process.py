@@ -162,6 +162,10 @@ class _Checks:
     def encoder_trouble(self) -> tuple[str, str] | None:
         """(cause, remedy) when an encoder column is not in rad, wraps, or is noisier than the motion step (what
         makes the rest look shorter than a sample or two), else None."""
+        return self.wrap_trouble() or self._unit_or_noise_trouble()
+
+    def wrap_trouble(self) -> tuple[str, str] | None:
+        """(cause, remedy) when an encoder column jumps by a full turn between samples (wrapped), else None."""
         for name in ENCODERS:
             j = self.jump[name]
             if j is not None and abs(abs(j[1]) - 360.0) < 5.0:
@@ -176,6 +180,9 @@ class _Checks:
                     "or (−π, π]): the gimbals cannot turn a full turn in one sample",
                     "unwrap the encoder columns (numpy.unwrap) before calibrating",
                 )
+        return None
+
+    def _unit_or_noise_trouble(self) -> tuple[str, str] | None:
         enc = sum(self.turn.values())
         if self.turn_gyro > 0.5 and 20.0 < enc / self.turn_gyro < 120.0:
             return (
@@ -235,9 +242,15 @@ def check_data(data) -> None:
     checks.finish()
 
 
-#: smallest latitude disagreement (deg) reported; gyro bias of a navigation-grade IMU moves the measured
-#: latitude by far less (0.01 °/h against 15 °/h of Earth rate: 0.04°)
-LAT_TOL_DEG = 2.0
+#: gyro bias (rad/s, 0.01 °/h) a navigation-grade unit may carry: it tilts the measured latitude by up to its ratio
+#: to the Earth rate (0.04°), which the gyro noise's σ does not include; the "rlg-nav" preset draws 0.005 °/h
+NAV_GYRO_BIAS = np.radians(0.01) / 3600
+#: declared latitudes this many 1σ (noise and :data:`NAV_GYRO_BIAS`) from the measured one are refused before the
+#: fit; nearer ones only where they would move the result by more than its std (``calibrate``)
+LAT_TOL_SIGMA = 5.0
+#: how near (deg) the declared value negated or read as radians must come to the measured one for the message to
+#: name that mistake (a flipped z axis measured −29.2° at 28.2°: the sensor's own tilt adds to the sign)
+LAT_HINT_DEG = 2.0
 
 
 def measured_latitude(dth, dv, span: float) -> tuple[float, float]:
@@ -252,9 +265,15 @@ def measured_latitude(dth, dv, span: float) -> tuple[float, float]:
     return float(np.arctan2(w_up, w_h)), float(noise / _earth.WGS84.omega_ie)
 
 
-def latitude_check(dth, dv, span: float, lat: float) -> None:
+def latitude_sigma(sd: float) -> float:
+    """1σ (rad) of the measured latitude: the gyro noise's ``sd`` (rad) and the tilt of :data:`NAV_GYRO_BIAS`."""
+    return float(np.hypot(sd, NAV_GYRO_BIAS / _earth.WGS84.omega_ie))
+
+
+def latitude_check(dth, dv, span: float, lat: float) -> tuple[float, float]:
     """The declared latitude ``lat`` (rad) must agree with the one the gyros measure at rest (a wrong latitude
-    misplaces the Earth rate removed by the strapdown and every angle comes out wrong)."""
+    misplaces the Earth rate removed by the strapdown and every angle comes out wrong); returns the measured
+    latitude and its 1σ from the gyro noise (rad, :func:`measured_latitude`)."""
     if not -np.pi / 2 <= lat <= np.pi / 2:
         raise OptinavError(f"latitude {np.degrees(lat):.6g}° is outside [-90°, 90°]", "pass --lat DEG (north +)")
     f = float(np.linalg.norm(dv.sum(0))) / span / _earth.WGS84.g_e
@@ -314,11 +333,14 @@ def latitude_check(dth, dv, span: float, lat: float) -> None:
             f"latitude only tilts it): a gyro bias of about {abs(ratio - 1) * dph:.2g} °/h, or a gyro scale error",
             "check the gyro columns (bias, scale, units); the fit assumes a gyro bias far below the Earth rate",
         )
-    tol = max(np.radians(LAT_TOL_DEG), 5 * sd)
+    # 2° let a latitude 1.5° off through, which moved θz + ηz by 8σ on a 16-position session; the bias term keeps
+    # a navigation-grade unit's own tilt (0.03° on the preset) from refusing the right latitude
+    tol = LAT_TOL_SIGMA * latitude_sigma(sd)
     if sd < np.radians(10) and abs(meas - lat) > tol:
         d = abs(meas - lat)
-        neg = abs(meas + lat) < tol
-        if abs(meas - np.degrees(lat)) < tol:  # the latitude in radians read as degrees
+        hint = max(tol, np.radians(LAT_HINT_DEG))
+        neg = abs(meas + lat) < hint
+        if abs(meas - np.degrees(lat)) < hint:  # the latitude in radians read as degrees
             raise OptinavError(
                 f"the latitude {np.degrees(lat):.4g}° disagrees with the {np.degrees(meas):.4g}° ± "
                 f"{np.degrees(sd):.2g}° the gyros measure from the Earth rate at rest, and {np.degrees(lat):.4g} rad "
@@ -326,9 +348,10 @@ def latitude_check(dth, dv, span: float, lat: float) -> None:
                 f"give --lat (or the file's lat_deg) in degrees: {np.degrees(np.degrees(lat)):.6g}",
             )
         raise OptinavError(
-            f"the latitude {np.degrees(lat):.4g}° disagrees with the {np.degrees(meas):.4g}° ± "
-            f"{np.degrees(sd):.2g}° the gyros measure from the Earth rate at rest (its angle above the plane the "
-            "accelerometers level)" + (": about the declared one negated" if neg else ""),
+            f"the latitude {np.degrees(lat):.4g}° disagrees with the {np.degrees(meas):.5g}° ± "
+            f"{np.degrees(latitude_sigma(sd)):.2g}° (1σ: gyro noise and a {np.degrees(NAV_GYRO_BIAS) * 3600:g} °/h "
+            "bias) the gyros measure from the Earth rate at rest (its angle above the plane the accelerometers "
+            "level)" + (": about the declared one negated" if neg else ""),
             "check --lat (north positive) or the file's lat_deg; if it is right, the sensors disagree: "
             + (
                 "a z gyro's or z accelerometer's sign flipped (check the columns' signs)"
@@ -337,6 +360,7 @@ def latitude_check(dth, dv, span: float, lat: float) -> None:
                 f"gyro or {np.sin(d):.2g} g on a horizontal accelerometer (check the columns' order, signs and biases)"
             ),
         )
+    return meas, sd
 
 
 def _blocks(src, desc: str):
@@ -350,7 +374,8 @@ class Alignment:
     last with both encoders still, capped by ``align_s``), ``q0`` the aligned ``q_s^n`` there (ENU), ``std`` its
     1σ (rad), ``n`` rows in all, ``step``/``step_nav`` the median sample step of the whole recording / of the
     strapdown epochs (rows m..n−1) [s], ``rest_sd`` the per-sample gyro noise of the rest (rad, first differences
-    of the increments over √2; 0 under 3 rows), ``lat`` [rad], ``height_m`` [m]."""
+    of the increments over √2; 0 under 3 rows), ``lat`` [rad], ``height_m`` [m]; ``lat_measured`` the latitude
+    the gyros measure at rest and its 1σ from their noise ``lat_measured_sd`` [rad] (NaN: not measured)."""
 
     m: int
     t_m: float
@@ -362,6 +387,8 @@ class Alignment:
     rest_sd: float
     lat: float
     height_m: float
+    lat_measured: float = float("nan")
+    lat_measured_sd: float = float("nan")
 
 
 #: most rows of the initial rest kept for the alignment (56 B each: 235 MB); a longer rest needs ``align_s``
@@ -429,6 +456,11 @@ def survey(data, *, align_s: float | None = None, fine: bool = True, desc: str =
             f"only {k_a * step:.3g} s of rest before the first gimbal move",
             "record at least 60 s (the paper: 600 s) static with both gimbals still first",
         )
+    # wrapped to (−π, π] the encoders start at rest and jump only within a move: the rest looks fine and the move
+    # check blamed the gyro columns for a "−360°" move
+    wrap = checks.wrap_trouble()
+    if wrap is not None:
+        raise OptinavError(*wrap)
     if k_a >= n - 2:
         raise OptinavError(
             "the gimbals never move after the alignment (no gimbal motion)",
@@ -451,7 +483,7 @@ def survey(data, *, align_s: float | None = None, fine: bool = True, desc: str =
     lat, h = src.lat, src.height_m
     # the encoders see a move start a little after the gyros (slow start of a rate profile): leave 2 s out
     k_lat = max(2, m - int(round(2.0 / step)))
-    latitude_check(dth[:k_lat], dv[:k_lat], k_lat * step, lat)
+    lat_meas, lat_sd = latitude_check(dth[:k_lat], dv[:k_lat], k_lat * step, lat)
     coarse = coarse_alignment(dv.sum(0) / span, dth.sum(0) / span, lat, h, "enu")
     if fine:
         al = fine_alignment(
@@ -481,6 +513,8 @@ def survey(data, *, align_s: float | None = None, fine: bool = True, desc: str =
         rest_sd=rest_sd,
         lat=float(lat),
         height_m=float(h),
+        lat_measured=lat_meas,
+        lat_measured_sd=lat_sd,
     )
 
 
