@@ -600,10 +600,10 @@ def test_encoders_wrapped_to_plus_minus_pi_are_named_a_wrap():
 
 def test_latitude_off_by_less_than_2deg_is_refused_the_right_one_passes():
     """A latitude 1.5° off passed the old 2° floor with exit 0 (on a 16-position session it moved θz + ηz by 8σ);
-    the gyros measure it within 5σ of their noise and a 0.01 °/h bias (0.2° here). The right latitude passes and
-    moves no combination by a std."""
+    the gyros measure it within 5σ of their noise and a 0.01 °/h bias (0.2° here), and the fit's sensitivity says
+    it moves a combination by more than its std. The right latitude passes and moves no combination by a std."""
     d = simulate(P_TRUE, rng=3, **SHORT)
-    for off in (1.5, -0.5):
+    for off in (1.5, -1.5):
         _err(dataclasses.replace(d, lat=d.lat + np.radians(off)), r"the latitude [\d.]+° disagrees with the 28\.")
     r = calibrate(d)
     lat = r.options["latitude"]

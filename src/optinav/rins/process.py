@@ -245,8 +245,10 @@ def check_data(data) -> None:
 #: gyro bias (rad/s, 0.01 °/h) a navigation-grade unit may carry: it tilts the measured latitude by up to its ratio
 #: to the Earth rate (0.04°), which the gyro noise's σ does not include; the "rlg-nav" preset draws 0.005 °/h
 NAV_GYRO_BIAS = np.radians(0.01) / 3600
-#: declared latitudes this many 1σ (noise and :data:`NAV_GYRO_BIAS`) from the measured one are refused before the
-#: fit; nearer ones only where they would move the result by more than its std (``calibrate``)
+#: declared latitudes this many 1σ (noise and :data:`NAV_GYRO_BIAS`) and :data:`LAT_HINT_DEG` from the measured one
+#: are refused before the fit; nearer ones after it, where they would move the result by more than its std
+#: (``calibrate``), once the gimbal moves have named a gyro column flipped or swapped (which tilts the measured
+#: latitude too: 0.6° for a flipped x or y gyro)
 LAT_TOL_SIGMA = 5.0
 #: how near (deg) the declared value negated or read as radians must come to the measured one for the message to
 #: name that mistake (a flipped z axis measured −29.2° at 28.2°: the sensor's own tilt adds to the sign)
@@ -333,14 +335,12 @@ def latitude_check(dth, dv, span: float, lat: float) -> tuple[float, float]:
             f"latitude only tilts it): a gyro bias of about {abs(ratio - 1) * dph:.2g} °/h, or a gyro scale error",
             "check the gyro columns (bias, scale, units); the fit assumes a gyro bias far below the Earth rate",
         )
-    # 2° let a latitude 1.5° off through, which moved θz + ηz by 8σ on a 16-position session; the bias term keeps
-    # a navigation-grade unit's own tilt (0.03° on the preset) from refusing the right latitude
-    tol = LAT_TOL_SIGMA * latitude_sigma(sd)
+    tol = max(LAT_TOL_SIGMA * latitude_sigma(sd), np.radians(LAT_HINT_DEG))
     if sd < np.radians(10) and abs(meas - lat) > tol:
         d = abs(meas - lat)
-        hint = max(tol, np.radians(LAT_HINT_DEG))
-        neg = abs(meas + lat) < hint
-        if abs(meas - np.degrees(lat)) < hint:  # the latitude in radians read as degrees
+
+        neg = abs(meas + lat) < tol
+        if abs(meas - np.degrees(lat)) < tol:  # the latitude in radians read as degrees
             raise OptinavError(
                 f"the latitude {np.degrees(lat):.4g}° disagrees with the {np.degrees(meas):.4g}° ± "
                 f"{np.degrees(sd):.2g}° the gyros measure from the Earth rate at rest, and {np.degrees(lat):.4g} rad "
