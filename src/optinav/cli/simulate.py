@@ -75,7 +75,9 @@ def register(sub) -> None:
         help="draw the unit's errors from the preset, or use the paper's Table 2 accelerometer",
     )
     a.add_argument("--dwell", type=POSITIVE, metavar="S", help="dwell per pose in s (default 60, or the plan's)")
-    a.add_argument("--transition", type=POSITIVE, default=4.0, metavar="S", help="turn duration in s (default 4)")
+    a.add_argument(
+        "--transition", type=POSITIVE, metavar="S", help="turn duration in s (default 4, or each of the plan's turns)"
+    )
     a.add_argument("--rest", type=POSITIVE, default=10.0, metavar="S", help="initial rest in s (default 10)")
     a.add_argument("--rate", dest="rate_hz", type=RATE, metavar="HZ", help="sample rate (default the preset's)")
     a.add_argument(
@@ -148,18 +150,21 @@ def run_accel_multipos(args) -> int:
 
     out = output_path(args.out, mark=SIMULATED)
     truth_path(out)
-    scheme, dwell, orientations = args.scheme or "paper12", args.dwell or 60.0, None
+    scheme, dwell, orientations, turns = args.scheme or "paper12", args.dwell or 60.0, None, args.transition or 4.0
     if args.plan:
         plan = load_option_result(PosePlan, args.plan, "--plan", "the plan.json of optinav design --out plan.json")
         scheme, dwell = np.asarray(plan.up_dirs, float), args.dwell or float(plan.dwell_s)
         orientations = np.asarray(plan.orientations, float)  # its headings too: the turns the plan predicts from
+        # and their durations: the gyro noise of a turn grows with its time (4-s turns for the plan's 1.3 s gave a
+        # gyro scale 1.3-2.6x worse than the plan predicted)
+        turns = args.transition or [float(t["duration_s"]) for t in plan.turns]
     step("simulate")
     stream = SessionStream(
         scheme,
         spec=args.preset,
         dwell_s=dwell,
         rate_hz=args.rate_hz,
-        transition_s=args.transition,
+        transition_s=turns,
         rest_s=args.rest,
         lat=np.radians(args.latitude),
         height_m=args.height_m,

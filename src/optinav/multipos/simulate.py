@@ -208,8 +208,9 @@ class SessionStream:
         Dwell per pose [s].
     rate_hz : float or None
         Sample rate [Hz]; None: the unit's.
-    transition_s : float
-        Duration of each turn between poses [s].
+    transition_s : float or (P − 1,) array
+        Duration of each turn between poses [s] (one for all, or one per turn, e.g. a pose plan's; the move from
+        the initial rest into the first pose, which does not turn, takes the shortest).
     rest_s : float
         Initial rest in the first pose [s].
     lat : float
@@ -249,7 +250,7 @@ class SessionStream:
         spec: ImuSpec | ImuModel | str = "mems-mti1",
         dwell_s: float = 60.0,
         rate_hz: float | None = None,
-        transition_s: float = 4.0,
+        transition_s=4.0,
         rest_s: float = 10.0,
         lat: float = float(np.radians(38.88)),
         height_m: float = 35.0,
@@ -297,7 +298,14 @@ class SessionStream:
             )
         )
         dwell = np.r_[rest_s, np.full(len(ups), check_positive(dwell_s, "dwell_s"))]
-        self.n = int(round((dwell.sum() + transition_s * len(ups)) * self.rate_hz))
+        turns = np.asarray(as_float_array(transition_s, "transition_s"), float).ravel()
+        if turns.size not in (1, len(ups) - 1) or not np.all(turns > 0):
+            raise OptinavError(
+                f"transition_s holds {turns.size} durations for {len(ups) - 1} turns between poses",
+                "give one positive duration (s) or one per turn",
+            )
+        transition_s = np.r_[turns.min(), np.broadcast_to(turns, (len(ups) - 1,))]
+        self.n = int(round((dwell.sum() + transition_s.sum()) * self.rate_hz))
         self.ups, self.unit_model, self.jitter = ups, unit_model, float(jitter)
         self.acc_unit, self.gyro_unit = acc_unit, gyro_unit
         self.fa = _raw_factor(acc_unit, "acc", acc_counts_per_si)
