@@ -367,3 +367,30 @@ def test_the_figure_title_clears_the_pose_titles(tmp_path, monkeypatch, poses):
         assert not top.overlaps(box), (poses, ax.get_title())
     monkeypatch.undo()
     plt.close(fig)
+
+
+def test_a_plans_poses_are_where_its_turns_leave_the_unit():
+    """The pose words gave the design's own headings ("x axis level, pointing west") where the 60° tip named
+    before them turned the body 90° or 163°: a technician following both, or `simulate --plan`, turned the unit
+    other than the plan's gyro prediction assumed. Each pose is now the last one tipped as its turn says."""
+    from optinav.core.rotations import dcm_from_rotvec
+
+    plan = plan_poses(12, acc_noise_density=1e-3, gyro_noise_density=1e-4, dwell_s=20, rng=0)
+    C = np.asarray(plan.orientations, float)
+    for k, tr in enumerate(plan.turns):
+        turn = dcm_from_rotvec(-np.radians(tr["angle_deg"]) * np.asarray(tr["axis_body"]))
+        np.testing.assert_allclose(C[k].T @ C[k + 1], turn, atol=1e-12, err_msg=f"turn {k + 1}")
+    np.testing.assert_allclose(C[:, 2, :], np.asarray(plan.up_dirs), atol=1e-12)  # C_b^nᵀ·e_U: the pose's up
+
+
+def test_simulate_plan_turns_for_the_plans_durations(tmp_path):
+    """`simulate --plan` turned every pose in 4 s (--transition's default) where the plan's turns take 1.3-2 s at
+    its 45 °/s: the gyro integrates noise over the turn's time, so the session was not the plan's."""
+    plan = tmp_path / "plan.json"
+    assert main(["--quiet", "design", "--poses", "9", "--dwell", "10", "--out", str(plan)]) == 0
+    out = tmp_path / "s.npz"
+    assert main(["--quiet", "simulate", "accel-multipos", "--plan", str(plan), "--rest", "20", "--out", str(out)]) == 0
+    turns = [t["duration_s"] for t in json.loads(plan.read_text())["fields"]["turns"]["value"]]
+    t = np.load(out)["t"]
+    # the initial rest, its move into the first pose (the shortest turn), 9 rests of 10 s and the plan's turns
+    assert abs(t[-1] + t[1] - (20 + min(turns) + 9 * 10 + sum(turns))) < 0.02, (t[-1], sum(turns))
