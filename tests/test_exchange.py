@@ -813,3 +813,25 @@ def test_apply_names_an_accelerometer_axis_flipped(tmp_path, capsys, axis):
     assert main(["--quiet", "apply", str(res), str(flipped), "--out", str(tmp_path / "o2.csv")]) == 2
     err = capsys.readouterr().err
     assert "does not explain how gravity turns" in err and "reads -" in err and "--columns" in err, err
+
+
+def test_an_imu_tk_file_for_data_in_g_names_the_unit_it_was_made_for(tmp_path, capsys):
+    """imu_tk files record no unit. A calibration of a log in g, exported to imu_tk and applied to the same log in
+    m/s² (declared), said "state the data's unit with --acc-unit": it was stated, and no flag can help. The error
+    names the unit the file was made for (|a| 9.8 g: g) and the remedy that works."""
+    s = tmp_path / "s.csv"
+    argv = ["--quiet", "simulate", "accel-multipos", "--out", str(s), "--acc-unit", "g", "--dwell", "10", "--seed", "3"]
+    assert main(argv) == 0
+    r = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "accel", str(s), "--out", str(r)]) == 0
+    a, g = tmp_path / "a.calib", tmp_path / "g.calib"
+    assert main(["--quiet", "export", str(r), "--to", "imu_tk", "--out", str(a), "--gyro-out", str(g)]) == 0
+    d = np.genfromtxt(s, delimiter=",", names=True, skip_header=2)  # (two comment lines: source, units)
+    si = tmp_path / "si.csv"
+    cols = [d["t"], *(d[f"a{c}"] * 9.80665 for c in "xyz"), *(d[f"g{c}"] for c in "xyz")]
+    np.savetxt(si, np.column_stack(cols), delimiter=",", comments="", header="t,ax,ay,az,gx,gy,gz")
+    si.write_text("# units: t=s acc=m/s^2 gyro=rad/s\n" + si.read_text())
+    capsys.readouterr()
+    assert main(["--quiet", "apply", str(a), str(si), "--gyro-cal", str(g), "--out", str(tmp_path / "o.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "imu_tk files record no unit" in err and "made for data in g" in err and "convert the log" in err, err

@@ -94,7 +94,7 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
                 pairs = (("accelerometer", log.acc, acc), ("gyroscope", log.gyr, gyro))
                 left = [name for name, raw, x in pairs if x is None and raw is not None]
             if writer.rows == 0 and acc is not None:
-                _check_corrected_norm(acc, log, data_path, result_path)
+                _check_corrected_norm(acc, log, data_path, result_path, res.method == "imu_tk")
                 _check_rest_norm(res, acc, log, data_path, result_path)
                 if gyro is not None:
                     _check_corrected_gyro(res, acc, gyro, log, data_path, result_path)
@@ -125,17 +125,34 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
     return f"wrote {writer.rows} corrected samples to {out} ({', '.join(written) if writer.rows else 'none'})"
 
 
-def _check_corrected_norm(acc, log, data_path, result_path) -> None:
+def _check_corrected_norm(acc, log, data_path, result_path, unitless: bool = False) -> None:
     """The first block's corrected specific force must read about g (median norm within ×2): a calibration made
-    for other raw units (g for counts, counts for m/s²) gave |a| of 0.17 or 19 964 m/s² with exit 0."""
+    for other raw units (g for counts, counts for m/s²) gave |a| of 0.17 or 19 964 m/s² with exit 0. ``unitless``:
+    a calibration file that records no unit (imu_tk's), whose raw unit no flag can state."""
     from optinav.core.units import G_STANDARD
 
     med = float(np.nanmedian(np.sqrt(np.einsum("ij,ij->i", acc, acc))))
     if not 0.5 * G_STANDARD <= med <= 2.0 * G_STANDARD:
-        raise OptinavError(
+        what = (
             f"{Path(result_path).name} applied to {Path(data_path).name} gives |a| = {med:.4g} m/s^2 (median of the "
             f"first {acc.shape[0]} samples), not about g: the data's raw unit ({log.acc_input_unit or 'unstated'}) "
-            "is not the one the calibration was made for",
+            "is not the one the calibration was made for"
+        )
+        if unitless and log.acc_input_unit:
+            # the unit was stated, and the file has none to convert it to: --acc-unit cannot help
+            ratio = med / G_STANDARD
+            guess = next(
+                (u for u, f in (("g", G_STANDARD), ("mg", G_STANDARD / 1e3)) if abs(ratio / f - 1) < 0.1), None
+            )
+            raise OptinavError(
+                what
+                + " (imu_tk files record no unit"
+                + (f"; |a| is {ratio:.4g} g: this one was made for data in {guess})" if guess else ")"),
+                f"convert the log to the unit the calibration was made in{f' ({guess})' if guess else ''}, or export "
+                "the calibration from optinav's result.json (which records its units) instead",
+            )
+        raise OptinavError(
+            what,
             "state the data's unit with --acc-unit (counts, g, mg, m/s^2), or apply the calibration of this sensor",
         )
 
