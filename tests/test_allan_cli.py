@@ -709,3 +709,18 @@ def test_a_sensitivity_is_for_counts_only(tmp_path):
 
     with pytest.raises(OptinavError, match=r"acc_lsb \(--acc-lsb\) reads an accelerometer in raw counts, not one in g"):
         read_imu(f, acc_unit="g", acc_lsb=2048)
+
+
+def test_kalibr_random_walk_takes_one_rule_across_the_axes():
+    """One axis's fitted K beside another's interval upper end: the largest of the mix was written (neither the
+    largest K nor a bound on every axis). Unless every axis shows one, every axis's upper end is taken."""
+    from types import SimpleNamespace
+
+    from optinav.core.allan import kalibr_noise
+
+    fit = SimpleNamespace(white=[1e-2] * 3, random_walk=[0.0, 0.0, 2.7e-4],
+                          random_walk_interval=[[0.0, 0.0, 1e-4], [4.6e-4, 4.5e-4, 5.3e-4]])  # fmt: skip
+    kal = kalibr_noise(fit, "accelerometer")
+    assert kal["accelerometer_random_walk"] == 5.3e-4 and kal["accelerometer_random_walk_detected"] is False
+    fit.random_walk = [1e-4, 2e-4, 2.7e-4]
+    assert kalibr_noise(fit, "accelerometer")["accelerometer_random_walk"] == 2.7e-4

@@ -1094,7 +1094,8 @@ class AllanAnalysis(Result):
     AllanNoiseParameters, "fit": AllanNoiseFit}`` of the three axes, in the data's rate unit (``unit`` of each;
     m/s² and rad/s for SI data). ``kalibr``: the continuous-time noise in Kalibr's convention from the fit —
     ``*_noise_density`` = N (m/s²/√Hz, rad/s/√Hz), ``*_random_walk`` = K (m/s³/√Hz, rad/s²/√Hz), the largest
-    axis (a filter tuned with it is not over-confident on any axis), and ``update_rate`` (Hz).
+    axis (a filter tuned with it is not over-confident on any axis; an upper bound where ``*_random_walk_detected``
+    is false, :func:`kalibr_noise`), and ``update_rate`` (Hz).
     """
 
     SCHEMA = "optinav.allan"
@@ -1257,8 +1258,9 @@ KALIBR_UNITS = {
 def kalibr_noise(fit: AllanNoiseFit, sensor: str) -> dict:
     """Kalibr's noise entries of a fit in SI units, the largest axis of each.
 
-    A random walk fitted to 0 (not seen in the record) becomes the upper end of its interval; one whose
-    interval has no upper end (a record too short to bound it) is refused.
+    The random walk is the largest fitted K when every axis shows one; else the largest upper end of the axes'
+    intervals, a bound for every axis (``{sensor}_random_walk_detected`` False). An interval without an upper
+    end (a record too short to bound it) is refused.
 
     Parameters
     ----------
@@ -1270,12 +1272,16 @@ def kalibr_noise(fit: AllanNoiseFit, sensor: str) -> dict:
     Returns
     -------
     dict
-        ``{sensor}_noise_density`` (N) and ``{sensor}_random_walk`` (K) [:data:`KALIBR_UNITS`].
+        ``{sensor}_noise_density`` (N) and ``{sensor}_random_walk`` (K) [:data:`KALIBR_UNITS`], and
+        ``{sensor}_random_walk_detected``.
     """
     N = np.atleast_1d(np.asarray(fit.white, float))
     K = np.atleast_1d(np.asarray(fit.random_walk, float))
     K_hi = np.asarray(fit.random_walk_interval, float).reshape(2, -1)[1]
-    K_used = np.where(K > 0, K, K_hi)
+    detected = bool(np.all(K > 0))
+    # one rule for all axes: an axis's upper end beside another's fitted K (taken when larger) was neither the
+    # largest K nor a bound on every axis
+    K_used = K if detected else K_hi
     if not np.all(np.isfinite(K_used)):
         raise OptinavError(
             f"the {sensor} random walk is not bounded by this record (its 68 % interval has no upper end)",
@@ -1284,7 +1290,7 @@ def kalibr_noise(fit: AllanNoiseFit, sensor: str) -> dict:
     return {
         f"{sensor}_noise_density": float(np.nanmax(N)),
         f"{sensor}_random_walk": float(np.nanmax(K_used)),
-        f"{sensor}_random_walk_detected": bool(np.all(K > 0)),
+        f"{sensor}_random_walk_detected": detected,
     }
 
 
