@@ -711,6 +711,65 @@ def test_a_sensitivity_is_for_counts_only(tmp_path):
         read_imu(f, acc_unit="g", acc_lsb=2048)
 
 
+def _static_log(path, seconds, *, N=1e-3, K=2e-5, rate=100.0, seed=0):
+    """A static log of white noise N and random walk K per gyro axis (rad/s; the accelerometer 10× both, m/s^2),
+    as the adversarial review's logs; returns the truth in Kalibr's units."""
+    rng = np.random.default_rng(seed)
+    n, dt = int(round(seconds * rate)), 1.0 / rate
+
+    def triad(n_, k_):
+        return rng.standard_normal((n, 3)) * n_ / math.sqrt(dt) + np.cumsum(
+            rng.standard_normal((n, 3)) * k_ * math.sqrt(dt), axis=0
+        )
+
+    acc = triad(10 * N, 10 * K) + [0.0, 0.0, 9.80665]
+    _write_log(path, np.arange(n) * dt, acc, triad(N, K))
+    return {"accelerometer": (10 * N, 10 * K), "gyroscope": (N, K)}
+
+
+def _rw_lines(yml):
+    return {k: line for line in yml.read_text().splitlines() for k in ("accelerometer", "gyroscope")
+            if line.startswith(f"{k}_random_walk:")}  # fmt: skip
+
+
+def test_a_random_walk_the_log_only_bounds_is_labelled_and_a_meaningless_bound_refused(tmp_path, capsys):
+    """A 2-s log wrote accelerometer_random_walk 0.51 (2500× the truth), a 10-s one 75×, as "random walk K of the
+    five-term Allan fit", exit 0: they were the upper ends of 68 % intervals. A bound over 1/s times the noise
+    density (a MEMS's K is about 0.1/s times it) is refused, naming the length needed and --allow-rw-bound; a
+    5-min log's bound (below it) is written and called a bound in the yaml and on the console; a random walk every
+    axis shows is written as fitted."""
+    for seconds in (2, 10):
+        log = tmp_path / f"s{seconds}.csv"
+        truth = _static_log(log, seconds)
+        yml, out = tmp_path / f"s{seconds}.yaml", tmp_path / f"s{seconds}.json"
+        assert main(["allan", str(log), "--out", str(out), "--kalibr", str(yml)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "random walk shows in this" in err and "--allow-rw-bound" in err, err
+        assert re.search(r"record at least \d+ min at rest", err) and not yml.exists() and not out.exists()
+        assert main(["allan", str(log), "--out", str(out), "--kalibr", str(yml), "--allow-rw-bound"]) == 0
+        kal = yaml.safe_load(yml.read_text())
+        for s, line in _rw_lines(yml).items():
+            assert "upper bound" in line
+            assert kal[f"{s}_random_walk"] > truth[s][1]  # a bound that holds the truth, far above it
+        assert capsys.readouterr().err.count("is an upper bound, not a measurement") == 2
+    log, yml = tmp_path / "m5.csv", tmp_path / "m5.yaml"
+    truth = _static_log(log, 300)
+    assert main(["allan", str(log), "--out", str(tmp_path / "m5.json"), "--kalibr", str(yml)]) == 0
+    kal = yaml.safe_load(yml.read_text())
+    for s, (N, K) in truth.items():
+        assert "upper bound" in _rw_lines(yml)[s]
+        assert K < kal[f"{s}_random_walk"] < N * 1.0 and kal[f"{s}_noise_density"] == pytest.approx(N, rel=0.05)
+    assert capsys.readouterr().err.count("is an upper bound, not a measurement") == 2
+    # where every axis shows its random walk (K / N = 0.5/s, 10 min) Kalibr gets the fitted K, no bound said
+    log, yml = tmp_path / "k.csv", tmp_path / "k.yaml"
+    truth = _static_log(log, 600, K=5e-4, seed=1)
+    assert main(["allan", str(log), "--out", str(tmp_path / "k.json"), "--kalibr", str(yml)]) == 0
+    assert "upper bound" not in yml.read_text() + capsys.readouterr().err
+    kal = yaml.safe_load(yml.read_text())
+    for s, (N, K) in truth.items():
+        assert kal[f"{s}_random_walk"] == pytest.approx(K, rel=0.5)
+
+
 def test_kalibr_random_walk_takes_one_rule_across_the_axes():
     """One axis's fitted K beside another's interval upper end: the largest of the mix was written (neither the
     largest K nor a bound on every axis). Unless every axis shows one, every axis's upper end is taken."""

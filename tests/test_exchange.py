@@ -313,6 +313,34 @@ def test_export_kalibr_passes_on_what_the_noise_rests_on(session, tmp_path, caps
     assert f"note: --noise {allan}: the log spans 0.6 min" in err and "neither K nor its interval is reliable" in err
 
 
+def test_export_kalibr_says_a_random_walk_is_a_bound_and_refuses_a_meaningless_one(session, tmp_path, capsys):
+    """A 20-s rest's allan result (white noise only) gave export a random walk the log only bounds, 25× its noise
+    density per second: written as the fit's K with exit 0. Refused as allan --kalibr refuses it (and written with
+    --allow-rw-bound, called a bound in the yaml and a note)."""
+    d, data = session
+    out = d / "r5.json"
+    assert main(["--quiet", "calibrate", "accel", str(data), "--out", str(out)]) == 0
+    rng = np.random.default_rng(5)
+    n, N = 2000, 1e-3
+    rows = np.c_[np.arange(n) / 100.0, rng.standard_normal((n, 3)) * 10 * N * 10 + [0, 0, 9.80665],
+                 rng.standard_normal((n, 3)) * N * 10]  # fmt: skip
+    rest, allan, yml = tmp_path / "rest.csv", tmp_path / "allan.json", tmp_path / "imu.yaml"
+    np.savetxt(rest, rows, delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="", fmt="%.10g")
+    assert main(["--quiet", "allan", str(rest), "--out", str(allan)]) == 0
+    argv = ["export", str(out), "--to", "kalibr", "--acc-lsb", "2048", "--noise", str(allan), "--out", str(yml)]
+    capsys.readouterr()
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "random walk shows in this 20 s log" in err and "--allow-rw-bound" in err, err
+    assert not yml.exists()
+    assert main([*argv, "--allow-rw-bound"]) == 0
+    assert "is an upper bound, not a measurement" in capsys.readouterr().err
+    kal = read_kalibr_imu_yaml(yml)
+    assert kal["gyroscope_random_walk"] > 1.0 * kal["gyroscope_noise_density"]
+    assert yml.read_text().count("upper bound: no random walk shows in the log") == 2
+    assert main(["export", str(out), "--to", "imucal", "--allow-rw-bound", "--out", str(tmp_path / "c.json")]) == 2
+
+
 @pytest.mark.parametrize(
     "text, why",
     [

@@ -69,6 +69,12 @@ def register(sub) -> None:
         metavar="TOPIC",
         help="the IMU topic written into --kalibr (default: a bag's Imu topic, else /imu0)",
     )
+    p.add_argument(
+        "--allow-rw-bound",
+        action="store_true",
+        help="--kalibr: write a random walk the log only bounds even when the bound is over 1/s times the noise "
+        "density (a log under about a minute at rest; refused without this)",
+    )
     add_input_options(p)
     add_counts_options(p)
     add_gyro_file_options(p, "each triad analysed on its own clock and rate (not interpolated)")
@@ -101,6 +107,7 @@ def run(args) -> int:
     step("read")
     notes = ReaderNotes()
     res = _analyse(args, notes, need_kalibr=kalibr is not None)
+    bounds = _random_walk_bounds(args, res, kalibr)
     step("write")
     res.to_json(out)
     notes.print()
@@ -110,8 +117,9 @@ def run(args) -> int:
     if kalibr is not None:
         from optinav.multipos.kalibr import DEFAULT_ROSTOPIC_NOTE, write_kalibr_imu_yaml
 
-        write_kalibr_imu_yaml(kalibr, noise=res, option="--kalibr")
+        write_kalibr_imu_yaml(kalibr, noise=res, option="--kalibr", allow_rw_bound=args.allow_rw_bound)
         print(f"optinav: Kalibr imu.yaml written to {kalibr}")
+        print_notes(bounds)
         if not res.rostopic:
             print_notes([DEFAULT_ROSTOPIC_NOTE])
     if args.report:
@@ -119,6 +127,18 @@ def run(args) -> int:
 
         print(f"optinav: report written to {write_allan_report(res, args.report)}/index.md")
     return 0
+
+
+def _random_walk_bounds(args, res, kalibr) -> list[str]:
+    """The notes naming Kalibr's random walks that are bounds only; a meaningless bound refused unless
+    --allow-rw-bound. Checked before any file is written: a refusal leaves no allan.json beside a missing yaml."""
+    if kalibr is None:
+        if args.allow_rw_bound:
+            raise OptinavError("--allow-rw-bound is for --kalibr", "drop --allow-rw-bound, or add --kalibr IMU.yaml")
+        return []
+    from optinav.multipos.kalibr import random_walk_bounds
+
+    return random_walk_bounds(res, allow=args.allow_rw_bound)
 
 
 def _analyse(args, notes: ReaderNotes, need_kalibr: bool):

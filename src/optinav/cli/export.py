@@ -51,6 +51,12 @@ def register(sub) -> None:
         "--rate", dest="rate_hz", type=RATE, metavar="HZ", help="kalibr: update_rate (default: the allan result's)"
     )
     p.add_argument(
+        "--allow-rw-bound",
+        action="store_true",
+        help="kalibr: write a random walk the allan log only bounds even when the bound is over 1/s times the "
+        "noise density (refused without this)",
+    )
+    p.add_argument(
         "--acc-lsb",
         type=POSITIVE,
         metavar="LSB_PER_G",
@@ -74,6 +80,7 @@ def run(args) -> int:
             ("--rate", args.rate_hz),
             ("--acc-lsb", args.acc_lsb),
             ("--gyro-lsb", args.gyro_lsb),
+            ("--allow-rw-bound", args.allow_rw_bound or None),
         ):
             if value is not None:
                 raise OptinavError(f"{flag} is for --to kalibr", f"drop {flag}")
@@ -106,6 +113,7 @@ def run(args) -> int:
         rostopic=args.rostopic,
         update_rate=args.rate_hz,
         counts_per_si=cps,
+        allow_rw_bound=args.allow_rw_bound,
     ):
         print(f"optinav: {args.to} file written to {path}")
     print_notes(_notes(args, res, noise))
@@ -124,6 +132,10 @@ def _notes(args, res, noise) -> list[str]:
     notes = [n for n in (held_note(res, args.to),) if n]
     # what the noise rests on (a log too short for K put 170x the truth into imu.yaml with no word)
     notes += [f"--noise {args.noise}: {n}" for n in (noise.notes if noise is not None else [])]
+    if args.to == "kalibr" and noise is not None:
+        from optinav.multipos.kalibr import random_walk_bounds
+
+        notes += random_walk_bounds(noise, allow=True)
     if args.to == "kalibr" and noise is not None and not (args.rostopic or noise.rostopic):
         notes.append(DEFAULT_ROSTOPIC_NOTE)
     if args.to == "kalibr" and noise is None:

@@ -37,6 +37,7 @@ def export_calibration(
     update_rate: float | None = None,
     option: str = "--out",
     counts_per_si: dict | None = None,
+    allow_rw_bound: bool = False,
 ) -> list[Path]:
     """Write ``res`` in format ``fmt`` (one of :data:`FORMATS`) to ``out`` (and ``gyro_out`` for imu_tk's gyro
     file); returns the paths written. ``noise``: an AllanAnalysis for Kalibr's noise keys."""
@@ -106,6 +107,7 @@ def export_calibration(
         update_rate=update_rate,
         option=option,
         counts_per_si=counts_per_si,
+        allow_rw_bound=allow_rw_bound,
     )
     return [Path(out)]
 

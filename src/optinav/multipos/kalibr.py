@@ -149,6 +149,60 @@ def _factor(unit, factor, counts_per_si=None, sensor: str = "", flag: str = "") 
     return 1.0
 
 
+#: 1/s: the largest random-walk bound Kalibr gets per unit of its white noise (K_bound / N). A typical MEMS has
+#: K / N of about 0.1/s (EuRoC's ADIS16448 gyro 0.11/s; 0.02-0.15/s for consumer parts), and Kalibr users inflate
+#: K by up to 10×; a bound above that says nothing a datasheet does not. On simulated white-noise logs the bound of
+#: the largest axis is 25·N/T in the median (12-50·N/T, T the log's span; 55·N/T at 2 s), so this holds from
+#: about a minute at rest: 2 s gave 53/s (2500× the truth), 10 s 10/s, 60 s 0.46/s, 5 min 0.094/s
+RW_BOUND_MAX = 1.0
+
+#: the flag that writes a random-walk bound above :data:`RW_BOUND_MAX` anyway
+RW_BOUND_FLAG = "--allow-rw-bound"
+
+_RW_UNITS = {"accelerometer": "m/s^3/sqrt(Hz)", "gyroscope": "rad/s^2/sqrt(Hz)"}
+
+
+def _span(seconds: float) -> str:
+    return (
+        f"{seconds:.3g} s"
+        if seconds < 120
+        else f"{seconds / 60:.3g} min"
+        if seconds < 7200
+        else f"{seconds / 3600:.3g} h"
+    )
+
+
+def random_walk_bounds(noise, *, allow: bool = False) -> list[str]:
+    """The notes naming each Kalibr random walk of ``noise`` (an AllanAnalysis) that is only an upper bound (no
+    random walk seen in the log); a bound above :data:`RW_BOUND_MAX` times the noise density is refused unless
+    ``allow``. A result that does not say whether its random walk was seen (written before it was recorded)
+    gets no note."""
+    kal = noise.kalibr or {}
+    span = float(getattr(noise, "duration_s", float("nan")))
+    bounds = []  # (K / N, sensor, K)
+    for sensor in _RW_UNITS:
+        K, N = kal.get(f"{sensor}_random_walk"), kal.get(f"{sensor}_noise_density")
+        if kal.get(f"{sensor}_random_walk_detected") is False and K is not None and N:
+            bounds.append((K / N, sensor, K))
+    worst = max(bounds, default=None)
+    if worst is not None and worst[0] > RW_BOUND_MAX and not allow:
+        ratio, sensor, K = worst
+        # the bound falls as 1/T: the span that brings it to the limit, with a fifth to spare, at least a minute
+        need = max(60.0, 1.2 * span * ratio / RW_BOUND_MAX) if math.isfinite(span) else 60.0
+        raise OptinavError(
+            f"no {sensor} random walk shows in this {_span(span)} log, and the bound it gives Kalibr, "
+            f"{K:.3g} {_RW_UNITS[sensor]}, is {ratio:.3g}/s times the noise density (a MEMS's random walk is about "
+            f"0.1/s times it; a bound above {RW_BOUND_MAX:g}/s says nothing)",
+            f"record at least {math.ceil(need / 60):d} min at rest (the bound falls as 1/T; hours to measure it), "
+            f"or pass {RW_BOUND_FLAG} to write the bound anyway",
+        )
+    return [
+        f"Kalibr's {sensor}_random_walk {K:.3g} {_RW_UNITS[sensor]} is an upper bound, not a measurement: no random "
+        f"walk shows in this {_span(span)} log ({ratio:.3g}/s times the noise density; a MEMS's is about 0.1/s times it)"
+        for ratio, sensor, K in bounds
+    ]
+
+
 #: the topic written into a Kalibr IMU file when none is known (Kalibr requires the key; its examples' name)
 DEFAULT_ROSTOPIC = "/imu0"
 #: what the commands say when they wrote :data:`DEFAULT_ROSTOPIC`
@@ -164,12 +218,14 @@ def write_kalibr_imu_yaml(
     update_rate: float | None = None,
     option: str = "--out",
     counts_per_si: dict | None = None,
+    allow_rw_bound: bool = False,
 ) -> None:
     """Write Kalibr's IMU YAML: the noise keys from ``noise`` (an :class:`~optinav.core.allan.AllanAnalysis` of SI
     data with both triads), ``rostopic``/``update_rate`` (from ``noise`` unless given) and, with ``calibration``,
     ``model: scale-misalignment`` and its matrices. Refuses a file with neither. With ``noise`` the file is a
     Kalibr input (``kalibr_calibrate_imu_camera --imu``): every key Kalibr requires, the topic
-    :data:`DEFAULT_ROSTOPIC` unless given or in ``noise``."""
+    :data:`DEFAULT_ROSTOPIC` unless given or in ``noise``. A random walk that is only an upper bound says so on
+    its line, and one above :data:`RW_BOUND_MAX` times the noise density is refused unless ``allow_rw_bound``."""
     if noise is None and calibration is None:
         raise OptinavError("nothing to write into the Kalibr file", "give an allan result or a calibration")
     # no "%YAML:1.0" line (OpenCV's, as imu_utils writes): Kalibr reads the file with yaml.safe_load, which
@@ -192,8 +248,11 @@ def write_kalibr_imu_yaml(
             "gyroscope_noise_density": "rad/s/sqrt(Hz)",
             "gyroscope_random_walk": "rad/s^2/sqrt(Hz)",
         }
+        random_walk_bounds(noise, allow=allow_rw_bound)
         head.append(
-            "# noise: continuous-time white-noise density N and random walk K of the five-term Allan fit (a rate ramp kept out of K), largest axis"
+            "# noise: continuous-time white-noise density N and random walk K of the five-term Allan fit (a rate ramp "
+            "kept out of K), largest axis; K is the fitted value where every axis shows a random walk, else the "
+            "largest upper end of the axes' 68 % intervals (a bound, said on its line)"
         )
         for k in NOISE_KEYS:
             v = kal[k]
@@ -204,7 +263,10 @@ def write_kalibr_imu_yaml(
                     f"{NOISE_MAX:g} in SI units)",
                     "run optinav allan again on the sensor's static log, or check the file",
                 )
-            body.append(f"{k}: {_num(v)}  # [{units[k]}]")
+            bound = k.endswith("_random_walk") and kal.get(f"{k}_detected") is False
+            # a bound read as a measured K was taken for the sensor's drift (2500× the truth from a 2-s log)
+            why = "  upper bound: no random walk shows in the log (68 % interval's upper end)" if bound else ""
+            body.append(f"{k}: {_num(v)}  # [{units[k]}]{why}")
         if rate is None:
             rate = kal.get("update_rate")
         # Kalibr's IMU parameters require a topic: its examples' name unless one is known
