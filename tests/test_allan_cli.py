@@ -228,7 +228,8 @@ def test_a_deg_s_gyro_read_as_rad_s_is_named(tmp_path, capsys):
 
 def test_a_mdps_gyro_declared_deg_s_is_named_mdps(tmp_path, capsys):
     """The same pose with the gyro in mdps: declared deg/s it was told "looks like deg/s read as rad/s" and
-    "--gyro-unit deg/s", the unit given; now it names mdps, and --gyro-unit mdps gives the deg/s file's noise."""
+    "--gyro-unit deg/s", the unit given; now it names mdps (in a note: a stated unit is analysed as stated), and
+    --gyro-unit mdps gives the deg/s file's noise."""
     from pathlib import Path
 
     data = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "imucal" / "example_ferraris_session.csv"
@@ -240,10 +241,13 @@ def test_a_mdps_gyro_declared_deg_s_is_named_mdps(tmp_path, capsys):
     for name, k in (("dps.csv", 1.0), ("mdps.csv", 1000.0)):
         cols = np.column_stack([t, *acc, *(rows[f"gyr_{a}"] * k for a in "xyz")])
         np.savetxt(tmp_path / name, cols, delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="", fmt="%.17g")
-    argv = ["allan", str(tmp_path / "mdps.csv"), "--gyro-unit", "deg/s", "--out", str(tmp_path / "a.json")]
-    assert main(argv) == 2
+    argv = ["allan", str(tmp_path / "mdps.csv"), "--out", str(tmp_path / "a.json")]
+    assert main(argv) == 2  # read as rad/s, the default
+    assert "looks like mdps read as rad/s" in capsys.readouterr().err
+    # deg/s stated: the user's word stands (a gyro that noisy in deg/s had no way through), the note names mdps
+    assert main([*argv, "--gyro-unit", "deg/s"]) == 0
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "looks like mdps read as deg/s" in err and "--gyro-unit mdps" in err, err
+    assert "as declared in deg/s (--gyro-unit)" in err and "it looks like mdps read as deg/s" in err, err
     fits = []
     for name, unit in (("mdps.csv", "mdps"), ("dps.csv", "deg/s")):
         out = tmp_path / f"{name}.json"
@@ -783,3 +787,20 @@ def test_kalibr_random_walk_takes_one_rule_across_the_axes():
     assert kal["accelerometer_random_walk"] == 5.3e-4 and kal["accelerometer_random_walk_detected"] is False
     fit.random_walk = [1e-4, 2e-4, 2.7e-4]
     assert kalibr_noise(fit, "accelerometer")["accelerometer_random_walk"] == 2.7e-4
+
+
+def test_a_noisy_gyro_declared_rad_s_is_analysed_with_a_note(tmp_path, capsys):
+    """A gyro in rad/s with 0.005 rad/s/√Hz of white noise (beyond the MEMS check's 0.003) was refused even with
+    --gyro-unit rad/s stated, told to declare deg/s: every number 57× too small. Stated, it runs with a note naming
+    the density and gives N to its truth; not stated, the refusal names --gyro-unit rad/s as the way through."""
+    log = tmp_path / "noisy.csv"
+    truth = _static_log(log, 120, N=5e-3, K=0.0, seed=2)
+    out = tmp_path / "a.json"
+    assert main(["allan", str(log), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--gyro-unit rad/s if it is rad/s" in err, err
+    assert main(["allan", str(log), "--gyro-unit", "rad/s", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert err.count("beyond any MEMS gyro") == 1 and "(--gyro-unit)" in err and "0.005" in err, err
+    fit = Result.from_json(out).sensor("gyroscope")["fit"]
+    np.testing.assert_allclose(fit.white, truth["gyroscope"][0], rtol=0.05)

@@ -146,6 +146,7 @@ def _analyse(args, notes: ReaderNotes, need_kalibr: bool):
     from optinav.core.allan import analyse_blocks, analyse_pair
 
     topic = args.rostopic or ""
+    stated = dict(gyro_unit_stated=args.gyro_unit is not None)
     if not args.gyro_path:
         from optinav.io.imu import reader_options, sensor_logs
 
@@ -160,19 +161,29 @@ def _analyse(args, notes: ReaderNotes, need_kalibr: bool):
                     source=str(args.data),
                     rostopic=topic,
                     need_kalibr=need_kalibr,
+                    **stated,
                 )
-            res = analyse_pair(acc, gyr, sources=(str(args.data),) * 2, rostopic=topic, need_kalibr=need_kalibr)
+            res = analyse_pair(
+                acc, gyr, sources=(str(args.data),) * 2, rostopic=topic, need_kalibr=need_kalibr, **stated
+            )
             res.source = str(args.data)  # one file
             return res
     blocks = _blocks(args, args.data, args.columns, notes)
     if args.gyro_path:
         gyro = _blocks(args, args.gyro_path, args.gyro_columns, notes)
         res = analyse_pair(
-            blocks, gyro, sources=(str(args.data), str(args.gyro_path)), rostopic=topic, need_kalibr=need_kalibr
+            blocks,
+            gyro,
+            sources=(str(args.data), str(args.gyro_path)),
+            rostopic=topic,
+            need_kalibr=need_kalibr,
+            **stated,
         )
         res.notes += gyro.filled
     else:
-        res = analyse_blocks(blocks, args.sensor, source=str(args.data), rostopic=topic, need_kalibr=need_kalibr)
+        res = analyse_blocks(
+            blocks, args.sensor, source=str(args.data), rostopic=topic, need_kalibr=need_kalibr, **stated
+        )
     res.notes += blocks.filled
     table = blocks.chunks.table  # not a placeholder: a bag's topic
     res.rostopic = res.rostopic or (table.meta.get("topic", "") if table is not None else "")

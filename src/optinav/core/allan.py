@@ -1511,9 +1511,11 @@ class _GyroAtRest:
         self.n += g.shape[0]
         self.last = g[-1:].copy()
 
-    def check(self, dt: float) -> None:
+    def check(self, dt: float, stated: bool = False) -> str | None:
+        """Refuse a gyro beyond any MEMS's at rest; with the unit ``stated`` by the user (--gyro-unit), a note
+        naming the numbers instead: a noisy gyro in rad/s told to declare deg/s got every number 57× too small."""
         if not self.n or not self.nd:
-            return
+            return None
         rate = float(np.linalg.norm(self.sum / self.n))
         # white noise of per-sample std σ: first differences have variance 2σ² per axis; N = σ·√dt
         dens = float(np.sqrt(self.d2 / (2.0 * 3.0 * self.nd) * dt))
@@ -1541,7 +1543,15 @@ class _GyroAtRest:
                 if finer
                 else f"is in a finer unit than {self.declared} (mdps? raw counts?)"
             )
+            if stated:
+                return (
+                    f"the gyro reads {rate:.3g} rad/s at rest with a noise density of {dens:.3g} rad/s/√Hz as declared "
+                    f"in {self.declared} (--gyro-unit), beyond any MEMS gyro (at most {GYRO_REST_MAX:.2g} rad/s at "
+                    f"rest, {GYRO_N_MAX:.2g} rad/s/√Hz): analysed as declared; if it is not this gyro, it {looks}"
+                )
             other = f"--gyro-unit {finer[0]}" if finer else "--gyro-unit mdps for millidegrees per second"
+            # a gyro that is this noisy in the unit read had no way through
+            other += f", or --gyro-unit {self.declared} if it is {self.declared} (then analysed with a note)"
             raise OptinavError(
                 f"the gyro reads {rate:.3g} rad/s at rest with a noise density of {dens:.3g} rad/s/√Hz as declared in "
                 f"{self.declared}, beyond any MEMS gyro (at most {GYRO_REST_MAX:.2g} rad/s at rest, "
@@ -1549,7 +1559,7 @@ class _GyroAtRest:
                 "declare the unit with "
                 + (
                     "--gyro-unit counts (then calibrate and apply for SI noise), --gyro-lsb LSB_PER_DEG_S (SI by its "
-                    f"datasheet sensitivity), or {other}"
+                    f"datasheet sensitivity), {other}"
                     if self.whole
                     else other
                 ),
@@ -1752,6 +1762,7 @@ def analyse_blocks(
     rostopic: str = "",
     need_kalibr: bool = False,
     kalibr_sensors: tuple = ("accelerometer", "gyroscope"),
+    gyro_unit_stated: bool = False,
 ):
     """The noise characterisation of a static log given in blocks (what ``optinav allan`` computes).
 
@@ -1769,6 +1780,9 @@ def analyse_blocks(
         Refuse at the first block unless the triads of ``kalibr_sensors`` (both) are there in SI units.
     kalibr_sensors : tuple of str
         The triads ``need_kalibr`` asks of these blocks (one, when the other comes from a second file).
+    gyro_unit_stated : bool
+        The gyro's unit was stated by the user (``--gyro-unit``): a gyro beyond any MEMS's at rest in it gets a
+        note, not a refusal.
 
     Returns
     -------
@@ -1849,7 +1863,8 @@ def analyse_blocks(
         _check_still(name, acc, timing.t0, units[name], spreads[name].q)
         spreads[name].check(name, timing.t0, dt, units[name])
     _check_tilt(angles, units, timing.t0)
-    gyro_rest.check(dt)  # after the jumps: one corrupted sample of 30 rad/s was taken for a log in deg/s
+    # after the jumps: one corrupted sample of 30 rad/s was taken for a log in deg/s
+    gyro_note = gyro_rest.check(dt, stated=gyro_unit_stated)
     out = {}
     kal = {}
     sensor_notes = []
@@ -1885,7 +1900,7 @@ def analyse_blocks(
             f"τ reach a tenth of the log, here {span / 10:.3g} s): K mostly takes flicker noise here, and neither K "
             "nor its interval is reliable (N is)"
         )
-    notes += [n for n in sensor_notes if n]
+    notes += [n for n in (gyro_note, *sensor_notes) if n]
     return AllanAnalysis(
         accelerometer=out.get("accelerometer"),
         gyroscope=out.get("gyroscope"),
@@ -1899,7 +1914,15 @@ def analyse_blocks(
     )
 
 
-def analyse_pair(acc_blocks, gyro_blocks, *, sources: tuple = ("", ""), rostopic: str = "", need_kalibr: bool = False):
+def analyse_pair(
+    acc_blocks,
+    gyro_blocks,
+    *,
+    sources: tuple = ("", ""),
+    rostopic: str = "",
+    need_kalibr: bool = False,
+    gyro_unit_stated: bool = False,
+):
     """:func:`analyse_blocks` of an accelerometer and a gyroscope logged in two files, each on its own clock
     (a phone app's file per sensor): each triad's deviation comes from its own samples and rate — none is
     interpolated onto the other's times, which would low-pass its noise.
@@ -1914,6 +1937,8 @@ def analyse_pair(acc_blocks, gyro_blocks, *, sources: tuple = ("", ""), rostopic
         Recorded for the Kalibr file.
     need_kalibr : bool
         Refuse unless both triads are in SI units.
+    gyro_unit_stated : bool
+        As :func:`analyse_blocks`'s.
 
     Returns
     -------
@@ -1923,7 +1948,9 @@ def analyse_pair(acc_blocks, gyro_blocks, *, sources: tuple = ("", ""), rostopic
     """
     kw = dict(need_kalibr=need_kalibr)
     a = analyse_blocks(acc_blocks, "acc", source=sources[0], kalibr_sensors=("accelerometer",), **kw)
-    g = analyse_blocks(gyro_blocks, "gyro", source=sources[1], kalibr_sensors=("gyroscope",), **kw)
+    g = analyse_blocks(
+        gyro_blocks, "gyro", source=sources[1], kalibr_sensors=("gyroscope",), gyro_unit_stated=gyro_unit_stated, **kw
+    )
     names = [os.path.basename(s) or s for s in sources]
     notes = [f"accelerometer ({names[0]}): {n}" for n in a.notes] + [f"gyroscope ({names[1]}): {n}" for n in g.notes]
     if abs(g.rate_hz / a.rate_hz - 1.0) > 0.01:
