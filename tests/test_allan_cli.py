@@ -804,3 +804,22 @@ def test_a_noisy_gyro_declared_rad_s_is_analysed_with_a_note(tmp_path, capsys):
     assert err.count("beyond any MEMS gyro") == 1 and "(--gyro-unit)" in err and "0.005" in err, err
     fit = Result.from_json(out).sensor("gyroscope")["fit"]
     np.testing.assert_allclose(fit.white, truth["gyroscope"][0], rtol=0.05)
+
+
+def test_a_gap_longer_than_fill_gaps_bridges_names_the_limit(tmp_path, capsys):
+    """7 samples lost in a row with --fill-gaps passed were told "pass --fill-gaps": the limit (5 in a row) and
+    what to do beyond it are named; 5 in a row are bridged."""
+    log = tmp_path / "s.csv"
+    _static_log(log, 120, seed=3)
+    lines = log.read_text().splitlines()
+    for lost in (5, 7):
+        cut = tmp_path / f"drop{lost}.csv"
+        cut.write_text("\n".join(lines[:5001] + lines[5001 + lost :]) + "\n")
+        rc = main(["allan", str(cut), "--out", str(tmp_path / f"d{lost}.json"), "--fill-gaps"])
+        err = capsys.readouterr().err
+        if lost == 5:
+            assert rc == 0 and "5 lost sample(s) in 1 gap(s)" in err, err
+            continue
+        assert rc == 2 and err.count("\n") == 1, err
+        assert "7 samples are lost in a row after t = 49.99 s: --fill-gaps bridges at most 5" in err, err
+        assert "pass --fill-gaps" not in err and "cut the log at the gap" in err

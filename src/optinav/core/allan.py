@@ -1394,7 +1394,17 @@ def fill_gaps(blocks, notes: list):
             jt, jv = t, dict(vals)
         d = np.diff(jt) / dt0 if dt0 else np.zeros(0)
         k = np.rint(d)
-        where = np.flatnonzero((k >= 2) & (k <= FILL_MAX_LOST + 1) & (np.abs(d - k) <= 0.25))
+        whole = np.abs(d - k) <= 0.25
+        longer = np.flatnonzero((k > FILL_MAX_LOST + 1) & whole)
+        if longer.size:
+            # the timing check's "pass --fill-gaps" was the only word on such a gap, with --fill-gaps passed
+            i = int(longer[0])
+            raise OptinavError(
+                f"{int(k[i]) - 1} samples are lost in a row after t = {jt[i]:.6g} s: --fill-gaps bridges at most "
+                f"{FILL_MAX_LOST} in a row (bridged samples carry no noise)",
+                "cut the log at the gap and analyse the longest part (or each part on its own)",
+            )
+        where = np.flatnonzero((k >= 2) & (k <= FILL_MAX_LOST + 1) & whole)
         if where.size:
             m = (k[where] - 1).astype(np.int64)  # samples lost in each gap
             base = np.repeat(where, m)  # the row before each lost sample
