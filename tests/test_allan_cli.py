@@ -73,6 +73,10 @@ def test_allan_end_to_end_with_kalibr(rest, capsys):
     res = Result.from_json(out)
     assert isinstance(res, AllanAnalysis) and res.rate_hz == pytest.approx(50.0, rel=1e-9)
     assert res.gyroscope["deviation"].unit == "rad/s"  # the file's deg/s converted to SI
+    # each field carries its real unit (they said "[unit]*sqrt(s)", the unit in another field)
+    gyro = json.loads(out.read_text())["fields"]["gyroscope"]["value"]
+    assert gyro["fit"]["fields"]["white"]["unit"] == "(rad/s)*sqrt(s)", gyro["fit"]["fields"]["white"]
+    assert gyro["deviation"]["fields"]["adev"]["unit"] == "rad/s"
     for sensor in ("accelerometer", "gyroscope"):
         fit = res.sensor(sensor)["fit"]
         N_true = np.array(truth[sensor]["white"])

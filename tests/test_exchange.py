@@ -863,3 +863,11 @@ def test_an_imu_tk_file_for_data_in_g_names_the_unit_it_was_made_for(tmp_path, c
     assert main(["--quiet", "apply", str(a), str(si), "--gyro-cal", str(g), "--out", str(tmp_path / "o.csv")]) == 2
     err = capsys.readouterr().err
     assert "imu_tk files record no unit" in err and "made for data in g" in err and "convert the log" in err, err
+
+
+def test_kalibr_update_rate_is_written_to_six_digits(tmp_path):
+    """A rate from epoch time stamps (1.7e9 s) came out 99.999999999205272 in imu.yaml; written to 6 digits."""
+    res = _calibration(0, G=False, acc_unit="m/s^2", gyro_unit="rad/s")
+    export_calibration(res, "kalibr", tmp_path / "imu.yaml", rostopic="/imu0", update_rate=99.999999999205272)
+    assert read_kalibr_imu_yaml(tmp_path / "imu.yaml")["update_rate"] == 100.0
+    assert "update_rate: 100  #" in (tmp_path / "imu.yaml").read_text()

@@ -270,6 +270,16 @@ def _named_array(value: Any, dtype: str, where: str) -> np.ndarray:
         raise InvalidResult(f"field {where!r} holds values that are not {what}") from None
 
 
+def _field_units(res) -> dict[str, str]:
+    """Field name → unit of a result's fields; "[unit]" (a field in the data's own unit) is the result's ``unit``
+    field where it has one (allan.json showed "[unit]*sqrt(s)" with the real unit in another field)."""
+    own = getattr(res, "unit", None)
+    units = {f.name: f.metadata.get("unit", "-") for f in dataclasses.fields(res)}
+    if isinstance(own, str) and own:
+        units = {k: u.replace("[unit]", f"({own})" if u != "[unit]" else own) for k, u in units.items()}
+    return units
+
+
 @dataclasses.dataclass
 class Result:
     """Base of every optinav result; see the module docstring."""
@@ -295,7 +305,7 @@ class Result:
         dict of str to str
             The units.
         """
-        return {f.name: f.metadata.get("unit", "-") for f in dataclasses.fields(self)}
+        return _field_units(self)
 
     def to_dict(self) -> dict:
         """The versioned layout ``{"schema", "version", "optinav_version", "fields": {name: {"value", "unit"}}}``.
@@ -308,9 +318,10 @@ class Result:
         from optinav import __version__
 
         fields = {}
+        units = _field_units(self)  # (not self.units(): some results have a field named units)
         for f in dataclasses.fields(self):
             arrays: dict[str, str] = {}
-            fields[f.name] = {"value": _encode(getattr(self, f.name), "", arrays), "unit": f.metadata.get("unit", "-")}
+            fields[f.name] = {"value": _encode(getattr(self, f.name), "", arrays), "unit": units[f.name]}
             if arrays:
                 fields[f.name]["arrays"] = arrays
         return {"schema": self.SCHEMA, "version": self.VERSION, "optinav_version": __version__, "fields": fields}

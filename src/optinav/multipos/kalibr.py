@@ -248,7 +248,6 @@ def write_kalibr_imu_yaml(
             "gyroscope_noise_density": "rad/s/sqrt(Hz)",
             "gyroscope_random_walk": "rad/s^2/sqrt(Hz)",
         }
-        random_walk_bounds(noise, allow=allow_rw_bound)
         head.append(
             "# noise: continuous-time white-noise density N and random walk K of the five-term Allan fit (a rate ramp "
             "kept out of K), largest axis; K is the fitted value where every axis shows a random walk, else the "
@@ -267,6 +266,7 @@ def write_kalibr_imu_yaml(
             # a bound read as a measured K was taken for the sensor's drift (2500× the truth from a 2-s log)
             why = "  upper bound: no random walk shows in the log (68 % interval's upper end)" if bound else ""
             body.append(f"{k}: {_num(v)}  # [{units[k]}]{why}")
+        random_walk_bounds(noise, allow=allow_rw_bound)  # (after each value is one an IMU can have)
         if rate is None:
             rate = kal.get("update_rate")
         # Kalibr's IMU parameters require a topic: its examples' name unless one is known
@@ -276,7 +276,8 @@ def write_kalibr_imu_yaml(
             raise OptinavError(f"the topic {rostopic!r} is not a plain ROS name", "use a name like /imu0")
         body.append(f"rostopic: {rostopic}")
     if rate is not None:
-        body.append(f"update_rate: {_num(float(rate))}  # [Hz]")
+        # to 6 digits: a rate from epoch time stamps (1.7e9 s) came out 99.999999999205272 for 100 Hz
+        body.append(f"update_rate: {float(_num(float(rate))):.6g}  # [Hz]")
     if calibration is not None:
         m = kalibr_intrinsics(calibration, counts_per_si)
         body.append("model: scale-misalignment")
