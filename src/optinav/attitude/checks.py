@@ -1356,6 +1356,9 @@ def check_imu(
     share = gravity_share(bins, sums, dt, na, ng)
     low = (float(np.percentile(na, LOW_PERCENTILE)), float(np.percentile(ng, LOW_PERCENTILE)))
     check_norms(float(np.median(na)), float(np.median(ng)), float(np.max(ng)), gyro_unit, share, low)
+    rows = scale_bin_rows(dt)
+    # before the time base and the axes: a gyro off the accelerometer's clock was named "axes swapped"
+    check_gyro_lag(*field_rate_sums(gyr, acc, rows), rows * dt)
     gu = gyr if rest is None else gyr - rest  # (the windows and bins are placed by the gyro as read)
     # window by window as a streamed log is (StreamChecks.finish_second): no still window, gravity judged there too
     windows = (
@@ -2781,8 +2784,12 @@ def mag_gyro_scale(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[float,
     the gyro in rad/s), the share of the turning that s times the gyro's explains, and the turning seen (rad,
     Σ|Δu|), over the magnetically quiet bins (:data:`MAG_QUIET`); NaNs when under 30 pairs of bins. ``bins``,
     ``sums`` as :func:`field_rate_sums` gives them."""
+    return _scale_fit(_quiet_steps(bins, sums), h)
+
+
+def _scale_fit(quiet, h: float) -> tuple[float, float, float]:
+    """:func:`mag_gyro_scale` of :func:`_quiet_steps`' bins (None: NaNs)."""
     nan = (float("nan"),) * 3
-    quiet = _quiet_steps(bins, sums)
     if quiet is None:
         return nan
     du, pred = _turns(*quiet, h)
@@ -2797,7 +2804,11 @@ def _quiet_steps(bins: np.ndarray, sums: np.ndarray) -> tuple[np.ndarray, np.nda
     :func:`field_rate_sums`' bins, for :func:`_turns`; None under 30 such pairs."""
     if len(bins) == 0:
         return None
-    both, m, w = bin_fields(bins, sums)
+    return _quiet_of(*bin_fields(bins, sums))
+
+
+def _quiet_of(both: np.ndarray, m: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """:func:`_quiet_steps` of :func:`bin_fields`' bin numbers, mean fields and mean gyro rates."""
     nm = _norm(m)
     finite = np.isfinite(nm)
     if not np.any(finite):
@@ -2919,6 +2930,65 @@ def check_mag_lag(bins: np.ndarray, sums: np.ndarray, h: float) -> None:
             f"body as the gyro says when moved {abs(j) * h:.2g} s {'earlier' if j > 0 else 'later'} ({e:.0%} of its "
             f"turning explained; {e0:.0%} as stamped)",
             f"align the magnetometer's time stamps with the IMU's (its t {'−' if j > 0 else '+'} {abs(j) * h:.2g} s)",
+        )
+
+
+#: s: a gyro whose rotation turns gravity in the body as the accelerometer sees it best when moved in time by
+#: GYRO_LAG_S or more, leaving at most GYRO_LAG_BETTER of what it leaves unexplained as stamped, is on another clock
+#: than the accelerometer. BROAD's trials split in two files with the gyro 0.1 s late ran at 2.3-33° inclination RMSE
+#: with exit 0 (0.2 s: 3.6-50°; 29 was named "gyro axes swapped"); where judged (02, 03, 24, 33) 0.1 s late leaves
+#: 0.59-0.77 of the unexplained turning at the lag, 0.2 s late 0.34-0.52. Nearer lags are not judged: on a smooth simulated flight
+#: (on time) the share explained peaks 0.05 s off by 0.001, flat, and a few samples' lag is what an accelerometer
+#: filtered more than its gyro has (BROAD's trials 20 ms apart ran at 2-8°: not named)
+GYRO_LAG_S, GYRO_LAG_BETTER = 0.08, 0.75
+#: the lag is judged where gravity's turning in the quiet bins is explained this well at the best lag, by the gyro at
+#: a scale within GYRO_LAG_SCALE of 1 (fast translation turns the specific force without the body: not judged)
+GYRO_LAG_EXPLAINED, GYRO_LAG_SCALE = 0.5, 1.25
+#: bins (of MAG_SCALE_BIN_S) searched either way
+GYRO_LAG_BINS = 5
+
+
+def gyro_lag(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[float, float, float] | None:
+    """(lag s, explained at it, explained as stamped): the time by which the gyro's stamps are late against the
+    accelerometer's, from how the specific force turns in the body (``bins``, ``sums`` of :func:`field_rate_sums`
+    of the gyro and the accelerometer, ``h`` s a bin, searched :data:`GYRO_LAG_BINS` bins either way); None where
+    not judged (:data:`GYRO_LAG_EXPLAINED`)."""
+    if len(bins) == 0:
+        return None
+    both, m, w = bin_fields(bins, sums)
+    js = np.arange(-GYRO_LAG_BINS, GYRO_LAG_BINS + 1)
+    got = np.zeros((js.size, 3))
+    with np.errstate(all="ignore"):
+        for i, j in enumerate(js):
+            # the specific force of bin i + j beside the gyro of bin i (NaN where that bin is missing), the bins'
+            # means taken once (:func:`mag_gyro_scale` of :func:`_field_shifted` for each j took 11 ms per minute)
+            at = np.minimum(np.searchsorted(both, both + j), both.size - 1)
+            mj = np.where((both[at] == both + j)[:, None], m[at], np.nan)
+            got[i] = _scale_fit(_quiet_of(both, mj, w), h)
+    e = np.where(np.isfinite(got[:, 1]), got[:, 1], 0.0)
+    i = int(np.argmax(e))
+    s, turned = got[i, 0], got[GYRO_LAG_BINS, 2]
+    if not (e[i] >= GYRO_LAG_EXPLAINED and 1 / GYRO_LAG_SCALE <= s <= GYRO_LAG_SCALE and turned >= MAG_SCALE_TURN):
+        return None
+    # the gyro of bin i turns as the specific force of bin i + j does: its stamps are −j bins late
+    return float(-js[i] * h), float(e[i]), float(e[GYRO_LAG_BINS])
+
+
+def check_gyro_lag(bins: np.ndarray, sums: np.ndarray, h: float) -> None:
+    """Refuse a gyro off the accelerometer's clock (:func:`gyro_lag`, :data:`GYRO_LAG_S`; ``bins``, ``sums`` of
+    :func:`field_rate_sums` of the gyro and the accelerometer, ``h`` s a bin)."""
+    got = gyro_lag(bins, sums, h)
+    if got is None:
+        return
+    lag, e, e0 = got
+    if abs(lag) >= GYRO_LAG_S - 1e-9 and 1.0 - e <= GYRO_LAG_BETTER * (1.0 - e0):
+        late = "late" if lag > 0 else "early"
+        raise OptinavError(
+            f"the gyroscope's time stamps are about {abs(lag):.2g} s {late} against the accelerometer's: gravity "
+            f"turns in the body as the gyro says when it is moved {abs(lag):.2g} s "
+            f"{'earlier' if lag > 0 else 'later'} ({e:.1%} of its turning explained; {e0:.1%} as stamped)",
+            f"align the gyroscope's time stamps with the accelerometer's (its t {'−' if lag > 0 else '+'} "
+            f"{abs(lag):.2g} s); two files: check that they share one clock",
         )
 
 

@@ -55,6 +55,7 @@ class StreamChecks:
         self._scale_rows = 0
         self._witness: list[tuple] = []  # the same sums of a magnetometer the estimate does not use (add_witness)
         self._still: list[tuple] = []  # per TILT_BIN rows: gyro, accelerometer and their squares (the rest bias)
+        self._lag_sums: list[tuple] = []  # specific force and gyro sums per _scale_rows rows (the gyro's clock)
 
     def add_mag(self, mag: np.ndarray, acc: np.ndarray | None = None, gyr: np.ndarray | None = None) -> None:
         """Pass 1, after :meth:`add` of the same block: its magnetometer rows (n, 3); evenly spaced rows are kept,
@@ -64,8 +65,6 @@ class StreamChecks:
             self._mag_sums.append(_c.mag_sums(acc, mag, self.n - mag.shape[0]))
         if gyr is not None:
             self._gyr_sums.append(_c.gyro_sums(gyr, self.n - mag.shape[0]))
-            if not self._scale_rows:  # the first block's step sets the bins of the gyro-scale check
-                self._scale_rows = _c.scale_bin_rows(float(np.median(self._dts[-1])))
             self._scale_sums.append(_c.field_rate_sums(gyr, mag, self._scale_rows, self.n - mag.shape[0]))
         self._mag_any = self._mag_any or bool(np.isfinite(mag).all(axis=1).any())
         first = (-self._mag_seen) % self._mag_stride
@@ -80,8 +79,6 @@ class StreamChecks:
         """Pass 1, after :meth:`add` of the same block: the rows (n, 3, any unit) of a magnetometer the file has but
         the estimate does not use, kept as 0.1-s field and gyro sums for the gyro's scale and sense only
         (:func:`~optinav.attitude.checks.witness_error`; nothing else is judged on it)."""
-        if not self._scale_rows:
-            self._scale_rows = _c.scale_bin_rows(float(np.median(self._dts[-1])))
         self._witness.append(_c.field_rate_sums(gyr, mag, self._scale_rows, self.n - mag.shape[0]))
 
     def add(self, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> None:
@@ -98,6 +95,9 @@ class StreamChecks:
         self._held.add(gyr, acc)
         self._wraps.add(gyr)
         self._stuck.add(gyr, acc)
+        if not self._scale_rows:  # the first block's step sets the 0.1-s bins (of this check and the field's)
+            self._scale_rows = _c.scale_bin_rows(float(np.median(dts)))
+        self._lag_sums.append(_c.field_rate_sums(gyr, acc, self._scale_rows, self.n))
         if self._noisy is None:  # the first block's rows: which axes carry a sensor's noise (a dead axis)
             head = slice(0, _c.DEAD_HEAD_ROWS)
             self._noisy = (_c.noisy_axes(gyr[head]), _c.noisy_axes(acc[head]))
@@ -207,6 +207,9 @@ class StreamChecks:
         med_g = float(np.median(ng, overwrite_input=True))
         del ng
         _c.check_norms(med_a, med_g, self.peak, self.gyro_unit, share, low)
+        lag = [np.concatenate(x) for x in zip(*self._lag_sums)]
+        self._lag_sums = []
+        _c.check_gyro_lag(*lag, self._scale_rows * self.median_dt)
         # pass 2 gathers the unit window and, per axis and sign reaching 1 rad/s, the samples at the extreme
         self._win: list[list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = [[] for _ in self.windows]
         # (and the accelerometer's from ACC_CLIP_MIN)
