@@ -498,3 +498,39 @@ def test_a_gyro_file_on_another_clock_than_the_accelerometers_is_named(tmp_path,
             assert rc == (2 if refused else 0), err
             said = f"the gyroscope's time stamps are about {abs(late):.2g} s {word} against the accelerometer's"
             assert (said in err and "its t " in err) == refused, err
+
+
+def test_the_report_of_an_estimate_takes_its_log_as_estimated(tmp_path, capsys):
+    """`report R.json --data OTHER` of an attitude estimate checked the sample count only: BROAD 03 cut to trial
+    02's length was reported as "Attitude of t03.csv" with 02's angles, exit 0; now refused (the estimate does not
+    turn as that log's gyro does). An estimate of a log in two files could not be reported at all: the reader's
+    message named --columns and --gyro, which report did not have; now it takes them."""
+    import os
+    from pathlib import Path
+
+    from optinav.attitude import estimate
+    from optinav.attitude.data import load_broad
+
+    shared = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
+    broad = shared / "attitude" / "broad"
+    if not (broad / "03_undisturbed_slow_rotation_C.hdf5").is_file():
+        pytest.skip("BROAD data absent")
+    a, b = (
+        load_broad(broad / "02_undisturbed_slow_rotation_B.hdf5"),
+        load_broad(broad / "03_undisturbed_slow_rotation_C.hdf5"),
+    )
+    n = a.gyr.shape[0]
+    t = np.arange(n) / a.rate_hz
+    res = estimate(a.gyr, a.acc, 1 / a.rate_hz, frame="ENU")
+    res.to_json(tmp_path / "r.json")
+    fa, fg, other = tmp_path / "acc.csv", tmp_path / "gyr.csv", tmp_path / "t03.csv"
+    np.savetxt(fa, np.column_stack([t, a.acc]), delimiter=",", comments="", header="t,ax,ay,az")
+    np.savetxt(fg, np.column_stack([t, a.gyr]), delimiter=",", comments="", header="t,gx,gy,gz")
+    np.savetxt(
+        other, np.column_stack([t, b.acc[:n], b.gyr[:n]]), delimiter=",", comments="", header="t,ax,ay,az,gx,gy,gz"
+    )
+    base = ["--quiet", "report", str(tmp_path / "r.json")]
+    assert main([*base, "--data", str(other), "--out", str(tmp_path / "bad")]) == 2
+    assert "does not turn as the gyro of" in capsys.readouterr().err
+    assert main([*base, "--data", str(fa), "--gyro", str(fg), "--out", str(tmp_path / "ok")]) == 0
+    assert "Attitude of acc.csv" in (tmp_path / "ok" / "index.md").read_text()

@@ -50,6 +50,21 @@ def register(sub) -> None:
         choices=("s", "ms", "us", "ns"),
         help="unit of the --data recordings' time column, as given to calibrate or attitude (default s)",
     )
+    p.add_argument(
+        "--columns",
+        metavar="SPEC",
+        help="columns of the --data recordings, as given to calibrate or attitude (e.g. t,ax,ay,az,gx,gy,gz)",
+    )
+    p.add_argument(
+        "--gyro",
+        dest="gyro_path",
+        action="append",
+        default=[],
+        metavar="GYRODATA",
+        help="the gyroscope's file of a --data recording logged in two files, as given to calibrate or attitude "
+        "(repeatable, one per --data in order)",
+    )
+    p.add_argument("--topic", metavar="TOPIC", help="the IMU topic of --data bags, as given to calibrate or attitude")
     p.add_argument("--out", required=True, metavar="DIR|FILE.md", help="report folder or Markdown file")
     p.set_defaults(func=run)
 
@@ -64,7 +79,24 @@ def run(args) -> int:
         raise OptinavError("--rate is the sampling rate of the --data recordings", "give --data, or drop --rate")
     if args.time_unit is not None and not args.data:
         raise OptinavError("--time-unit is the unit of the --data recordings' time", "give --data, or drop --time-unit")
+    for flag, value in (("--columns", args.columns), ("--gyro", args.gyro_path or None), ("--topic", args.topic)):
+        if value is not None and not args.data:
+            raise OptinavError(f"{flag} reads the --data recordings", f"give --data, or drop {flag}")
+    if args.gyro_path and len(args.gyro_path) != len(args.data):
+        raise OptinavError(
+            f"{len(args.gyro_path)} --gyro files for {len(args.data)} --data recordings", "give one --gyro per --data"
+        )
+    require_files(*((g, "--gyro file") for g in args.gyro_path))
+    reading = {"columns": args.columns, "topic": args.topic}
     with report_option("--out"):
-        written = write_result_reports(args.results, args.out, args.data, args.rate_hz, time_unit=args.time_unit)
+        written = write_result_reports(
+            args.results,
+            args.out,
+            args.data,
+            args.rate_hz,
+            time_unit=args.time_unit,
+            reading=reading,
+            gyro=args.gyro_path,
+        )
     print(f"optinav: report written to {written}")
     return 0

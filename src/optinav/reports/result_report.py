@@ -59,22 +59,25 @@ def multipos_report(res, out_dir, data=None, options=None) -> Path:
     return write_report([study], out_dir, title="optinav calibration")
 
 
-def _reading(system, rate_hz: float | None, time_unit: str | None = None):
-    """The reading options of ``system``'s recordings with ``rate_hz`` and ``time_unit``, or None (its
-    defaults)."""
-    if rate_hz is None and time_unit is None:
+def _reading(system, rate_hz: float | None, time_unit: str | None = None, more: dict | None = None):
+    """The reading options of ``system``'s recordings with ``rate_hz``, ``time_unit`` and ``more`` (option field →
+    value: ``columns``, ``topic``, ``gyro_path``; None values left out), or None (its defaults)."""
+    given = {"rate_hz": rate_hz, "time_unit": time_unit, **(more or {})}
+    given = {k: v for k, v in given.items() if v is not None}
+    if not given:
         return None
     import dataclasses
 
     cls = system.load("options")
     names = {f.name for f in dataclasses.fields(cls)}
-    kw = {}
-    for value, field_name, flag in ((rate_hz, "rate_hz", "--rate"), (time_unit, "time_unit", "--time-unit")):
-        if value is not None:
-            if field_name not in names:
-                raise OptinavError(f"{flag} does not apply to {system.name} results", f"drop {flag}")
-            kw[field_name] = float(value) if field_name == "rate_hz" else value
-    return cls(**kw)
+    flags = {"rate_hz": "--rate", "time_unit": "--time-unit", "gyro_path": "--gyro"}
+    for field_name in given:
+        if field_name not in names:
+            flag = flags.get(field_name, f"--{field_name}")
+            raise OptinavError(f"{flag} does not apply to {system.name} results", f"drop {flag}")
+    if "rate_hz" in given:
+        given["rate_hz"] = float(given["rate_hz"])
+    return cls(**given)
 
 
 def _check_same_log(res, d, data) -> None:
@@ -135,6 +138,39 @@ STILL_SHARE = 0.05
 FIT_RATIO = 3.0
 
 
+#: rad/s: the samples of a log turning faster than this judge whether an attitude estimate is of it
+TURNING = 0.2
+#: an estimate whose rotation from sample to sample differs from the log's gyro by more than this share of the
+#: gyro's rate (median over its turning samples) is of another recording: BROAD 02's estimate on its own log 0.007,
+#: on trial 03 cut to its length 1.3 (reported as trial 03's attitude with exit 0)
+TURN_MISFIT = 0.5
+
+
+def _check_turns_with(res, t, gyr, data) -> None:
+    """``--data`` (times ``t`` s, gyro ``gyr`` rad/s) must be the log the estimate ``res`` came from: the estimate
+    turns from sample to sample as its gyro says (judged where the gyro turns faster than :data:`TURNING`)."""
+    import numpy as np
+
+    from optinav.core.rotations import quat_conjugate, quat_multiply
+
+    q = np.asarray(res.q_b_n, float)
+    g = np.asarray(gyr, float)[1:]
+    fast = np.linalg.norm(g, axis=1) > TURNING
+    if np.count_nonzero(fast) < 100:
+        return
+    dq = quat_multiply(quat_conjugate(q[:-1][fast]), q[1:][fast])
+    with np.errstate(all="ignore"):
+        w = 2.0 * dq[:, 1:] * np.sign(dq[:, :1]) / np.diff(t)[fast][:, None]
+        share = float(np.nanmedian(np.linalg.norm(w - g[fast], axis=1) / np.linalg.norm(g[fast], axis=1)))
+    if share > TURN_MISFIT:
+        raise OptinavError(
+            f"the estimate does not turn as the gyro of {data} does (its rotation from sample to sample differs from "
+            f"the gyro's by {share:.2g} of the gyro's rate, median over {np.count_nonzero(fast)} samples turning "
+            f"faster than {TURNING:g} rad/s): not the log it was estimated from",
+            "pass the log the estimate came from with --data",
+        )
+
+
 def attitude_report(res, out_dir, data=None, options=None) -> Path:
     """The report of an attitude estimate: its summary and the roll, pitch, yaw over the log ``data`` it was
     estimated from (read with ``options``, an :class:`~optinav.attitude.unit.AttitudeOptions`), which gives the
@@ -147,12 +183,13 @@ def attitude_report(res, out_dir, data=None, options=None) -> Path:
 
     if data is None:
         raise OptinavError("an attitude estimate holds no time stamps", "pass the log it came from with --data")
-    t = read_log(data, options or AttitudeOptions())[0]
+    t, gyr = read_log(data, options or AttitudeOptions())[:2]
     if t.size != len(res.q_b_n):
         raise OptinavError(
             f"{data} has {t.size} samples, the estimate {len(res.q_b_n)}",
             "pass the log the estimate came from with --data",
         )
+    _check_turns_with(res, t, gyr, data)
     eul = np.degrees(euler_from_quat(res.q_b_n, frame_name(res.frame)))
     return write_attitude_report(res, t, eul, str(data), out_dir)
 
@@ -170,14 +207,22 @@ def _stems(paths) -> list[str]:
 
 
 def write_result_reports(
-    results, out, data=None, rate_hz: float | None = None, *, time_unit: str | None = None
+    results,
+    out,
+    data=None,
+    rate_hz: float | None = None,
+    *,
+    time_unit: str | None = None,
+    reading: dict | None = None,
+    gyro=None,
 ) -> Path:
     """Report every result file of ``results`` (paths; ``data``: None or the recording of each, in order) into
     ``out``: a folder (one result: its report there; several: one sub-folder each and an index.md linking
     them) or a Markdown file ``FILE.md`` (the reports one after the other, their figures, HTML and summaries in
     ``FILE_files/``). ``rate_hz``: the sampling rate (Hz) of recordings without a time column (the reading
-    option of multi-position and attitude results), ``time_unit`` that of their time column. Returns the Markdown
-    file written."""
+    option of multi-position and attitude results), ``time_unit`` that of their time column, ``reading`` further
+    reading options of theirs (``columns``, ``topic``) and ``gyro`` the gyroscope's file of each (two-file
+    recordings, in order). Returns the Markdown file written."""
     from optinav import registry
     from optinav.core.files import check_output, write_text
     from optinav.reports.report import check_report_dir
@@ -204,8 +249,10 @@ def write_result_reports(
     made = _outermost_missing(root)
     new = [made] if made is not None else [f for f in folders if not f.exists()]
     try:
-        for (system, res), folder, d in zip(loaded, folders, data or [None] * len(results)):
-            system.load("report")(res, folder, d, _reading(system, rate_hz, time_unit))
+        gyros = list(gyro or []) or [None] * len(results)
+        for (system, res), folder, d, g in zip(loaded, folders, data or [None] * len(results), gyros):
+            opts = _reading(system, rate_hz, time_unit, {**(reading or {}), "gyro_path": g})
+            system.load("report")(res, folder, d, opts)
         if single_file:
             parts = [_relinked((f / "index.md").read_text(encoding="utf-8"), f"{root.name}/{f.name}") for f in folders]
             return write_text(out, "\n".join(parts), "--out")
