@@ -237,3 +237,23 @@ def test_a_changed_default_recomputes_the_journaled_units(tmp_path, monkeypatch)
         assert main([*argv, *extra]) == 0
         assert read_results(out)[0]["options_hash"] != h0, key
         monkeypatch.undo()
+
+
+def test_batch_attitude_rows_keep_what_the_reader_said(tmp_path):
+    """`batch attitude` kept a unit's warnings in its row's notes but not what `attitude` prints beside the numbers
+    (here an incomplete last line left out; from two files, the gyroscope interpolated and rows left out), which
+    docs/batch.md promises: a row whose rows were dropped could not be audited from the table."""
+    from optinav.batch import read_results
+
+    d = tmp_path / "units"
+    d.mkdir()
+    f = d / "f6.csv"
+    assert main(["--quiet", "simulate", "flight", "--kind", "dynamic", "--duration", "12", "--seed", "6",
+                 "--out", str(f)]) == 0  # fmt: skip
+    for truth in d.glob("f6.truth*"):
+        truth.unlink()
+    f.write_text(f.read_text() + "12.01,0.1,")  # a logger killed mid-line
+    out = tmp_path / "b.csv"
+    assert main(["--quiet", "batch", "attitude", str(d), "--workers", "0", "--out", str(out)]) == 0
+    (row,) = read_results(out)
+    assert "is incomplete and was left out" in (row.get("notes") or ""), row

@@ -344,4 +344,6 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[S
             heading_rmse_deg=float(np.degrees(heading)),
             n_reference=n,
         )
+    if run.notes:  # what attitude prints beside the numbers (rows left out, a gyro file interpolated, …)
+        extra["notes"] = " | ".join(run.notes)
     return run.estimate, extra
