@@ -134,7 +134,7 @@ def _smooth_motion(start: str, seconds: float = 60.0, dt: float = 0.01):
 
 @pytest.mark.parametrize("start", ["rest", "spin"])
 def test_gauss_newton_keeps_the_rates_branch_on_a_calibrated_geometry(start):
-    """A calibrated (irregular) cylinder10 at 1e-5 m/s² noise, 60 s of a smooth rate from rest through ±0.3–1
+    """A calibrated (irregular) cylinder10 at 1e-5 m/s² noise, 30 s of a smooth rate from rest through ±0.3–1
     rad/s, or about a 2 rad/s spin: the Gauss–Newton rate jumped onto the mirrored branch (ω → −ω, 2 rad/s off)
     near ω ≈ 0 and stayed there, exit 0, and was 0.03–0.12 rad/s off about the spin where the quadratic terms
     hardly see ωx; now within a few 1e-4 rad/s of the truth (the integration method: 5e-4 from rest, 0.012 about
@@ -142,7 +142,7 @@ def test_gauss_newton_keeps_the_rates_branch_on_a_calibrated_geometry(start):
     rng = np.random.default_rng(2)
     arr = perturb(builtin(), InstallationErrors.random(10, rng=rng))
     arr = AccelerometerArray(arr.positions, arr.directions, np.full(10, 1e-5))
-    t, om, wd, A = _smooth_motion(start)
+    t, om, wd, A = _smooth_motion(start, seconds=30.0)
     f = arr.outputs(A, wd, om) + rng.normal(0, 1e-5, (t.size, 10))
     w = solve_rate(arr, f, t, om[0], "gauss-newton")
     err = np.abs(w - om)[t > 1.0].max(axis=0)
