@@ -411,13 +411,19 @@ def test_apply_gfimu_replaces_its_own_output_but_not_a_log(gfimu, capsys):
 
 def test_report_gfimu_refuses_data_it_was_not_calibrated_from(gfimu, rins, capsys):
     """`optinav report GFIMU_RESULT --data X` wrote a report titled 'from X' for any file, a rotational-INS
-    recording included (exit 0): the data must be turntable data of the array with the result's samples per case."""
+    recording included (exit 0): the data must be turntable data of the array with the result's samples per case,
+    whose case means the calibrated geometry predicts as well as the calibration's own residual (another unit's
+    data with the same cases passed)."""
     d, data, result = gfimu
     other = d / "short.npz"
     argv = ["--quiet", "simulate", "gfimu-turntable", "--builtin", "cylinder10", "--duration", "0.5", "--out"]
     assert main([*argv, str(other)]) == 0
     assert main(["--quiet", "report", str(result), "--data", str(data), "--out", str(d / "rep_ok")]) == 0
-    for bad, why in ((other, "samples per case"), (rins[1], "has no mounting")):
+    # another unit (installation errors drawn, seed 2) with the same cases: titled the source of the result's errors
+    unit2 = d / "unit2.npz"
+    argv = ["--quiet", "simulate", "gfimu-turntable", "--builtin", "cylinder10", "--errors", "random", "--seed", "2"]
+    assert main([*argv, "--out", str(unit2)]) == 0
+    for bad, why in ((other, "samples per case"), (rins[1], "has no mounting"), (unit2, "the result's geometry")):
         capsys.readouterr()
         assert main(["--quiet", "report", str(result), "--data", str(bad), "--out", str(d / "rep_bad")]) == 2
         assert why in capsys.readouterr().err and not (d / "rep_bad").exists()

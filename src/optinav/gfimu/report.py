@@ -64,17 +64,49 @@ def _figure(res: TurntableCalibration) -> Figure:
     return Figure("installation_errors.png", "installation errors with ±2σ", draw, (7.5, 6.0))
 
 
+#: the case means of --data fit the result's geometry with a residual beyond this multiple of the result's own:
+#: another recording (its own: 1.0; another simulated unit of the same array, seeds and samples per case alike:
+#: 30-60)
+FIT_RATIO = 3.0
+
+
 def _check_same_data(res: TurntableCalibration, data) -> None:
     """``--data`` names the recording in the report's title: it must be turntable data of ``res``'s array with its
-    samples per case (a rotational-INS file was named the source, exit 0)."""
-    from optinav.gfimu.turntable import read_cases
+    samples per case (a rotational-INS file was named the source, exit 0), whose case means the calibrated geometry
+    predicts as well as the calibration's own residual (another unit's data with the same cases was titled the
+    source of the result's errors, exit 0)."""
+    import numpy as np
 
-    counts = [int(x) for x in read_cases(data, len(res.dalpha)).cases.count]
+    from optinav.gfimu.array import AccelerometerArray
+    from optinav.gfimu.turntable import nominal_case_means, read_cases
+
+    tc = read_cases(data, len(res.dalpha))
+    counts = [int(x) for x in tc.cases.count]
     if counts != [int(x) for x in res.samples_per_case]:
         raise OptinavError(
             f"{data} has {counts} samples per case, the result {[int(x) for x in res.samples_per_case]}: not the "
             "turntable data it was calibrated from",
             "pass the data the result was calibrated from with --data",
+        )
+    cm = tc.cases
+    # the geometry as fitted: the common shift the gauge took out of every dr put back, each case at its mounting's
+    # offset
+    shift = np.asarray(res.common_shift_m if res.common_shift_m is not None else np.zeros(3), float)
+    mounts = sorted({int(m) for m in cm.mounting})
+    offs = np.asarray(res.offsets, float).reshape(-1, 3)
+    if offs.shape[0] != len(mounts):
+        return
+    case_offsets = np.array([offs[mounts.index(int(m))] for m in cm.mounting])
+    array = AccelerometerArray(np.asarray(res.positions, float) + shift, np.asarray(res.directions, float))
+    pred = nominal_case_means(array, cm, tc.gamma, tc.gravity, case_offsets)
+    r = (pred - cm.mean) * np.sqrt(cm.count)[:, None] / np.asarray(res.sigma, float)[None, :]
+    rms = float(np.sqrt(np.mean(r * r)))
+    if res.residual_rms > 0 and rms > FIT_RATIO * max(res.residual_rms, 1.0):
+        raise OptinavError(
+            f"the case means of {data} leave {rms:.3g} σ RMS with the result's geometry, {rms / res.residual_rms:.0f}× "
+            f"the calibration's own {res.residual_rms:.3g} σ: not the turntable data it was calibrated from (another "
+            "unit's or another session's)",
+            "pass the data the result was calibrated from with --data (optinav apply solves another recording)",
         )
 
 
