@@ -290,12 +290,14 @@ def test_a_dwell_past_the_allan_minimum_is_refused(tmp_path, capsys):
 
 def test_a_dwell_too_short_for_calibrate_to_find_the_rests_is_refused(tmp_path, capsys):
     """--dwell 0.001 wrote a plan with exit 0 whose rests calibrate's static detection (2 s at least by default,
-    --min-duration) cannot find; refused naming the shortest dwell; 2 s is taken."""
+    --min-duration) cannot find; refused naming the shortest dwell. The detection takes 2 s off a rest's ends too:
+    a session of the plan at 3 s per pose found one rest ("only 1 static interval"), at 4 s all; 2 s was taken."""
     out = tmp_path / "p.json"
-    assert main(["design", "--dwell", "0.001", "--out", str(out)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "shorter than the 2 s a rest must last" in err and "--min-duration" in err, err
-    assert main(["--quiet", "design", "--dwell", "2", "--out", str(out)]) == 0
+    for dwell in ("0.001", "3.9"):
+        assert main(["design", "--dwell", dwell, "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "shorter than the 4 s a pose must last" in err and "--min-duration" in err, err
+    assert main(["--quiet", "design", "--dwell", "4", "--out", str(out)]) == 0
 
 
 def test_design_takes_the_noise_of_kalibrs_imu_yaml(tmp_path, capsys):

@@ -391,6 +391,7 @@ def _gauss_newton(
         first = 1
     dt = state.steps(t)
     n = array.n
+    Hl_pinv = np.linalg.pinv(Hl)  # rank [A, ω̇] = 6 (required above): the start's LS solve is this fixed matrix
     J = np.zeros((n + 3, 9))
     J[:n, :6] = Hl
     for k in range(first, T):
@@ -406,7 +407,7 @@ def _gauss_newton(
             return np.concatenate([fk - Hl @ xx - Hq @ quadratic_products(ww), L @ (base + 0.5 * h * xx[3:] - ww)])
 
         w = base + 0.5 * h * wd_prev  # the prior with ω̇_k = ω̇_{k−1}
-        x = np.linalg.lstsq(Hl, fw[k] - Hq @ quadratic_products(w), rcond=None)[0]
+        x = Hl_pinv @ (fw[k] - Hq @ quadratic_products(w))
         r = residual(x, w)
         cost = float(r @ r)
         for _ in range(iterations):

@@ -174,7 +174,7 @@ def gyro_turn_std(
     enters each turn and is shared by the two turns beside a rest. ``pad_s``: rest time the gyro integrates with
     each turn (calibrate's static detection leaves it between the rests, :data:`STATIC_PAD_S`). G puts G·g·ū (ū the
     rests' mean up vector, weighted by ``rest_weights``, default equal) into b and into turn k G·g·(ū_k − ū) ("static",
-    ū_k the mean of its end poses' up vectors) or G·g·(u(t) − the chord of its end poses' up vectors) ("local"), a
+    ū_k the mean of its end poses' up vectors) or G·g·(u(t) − the two rests' mean up vector) ("local"), a
     bias error of that turn. Returns (std (12,) with inf where not determined, ObservabilityReport of K).
     """
     u = np.asarray(up_dirs, float)
@@ -225,8 +225,8 @@ def gyro_turn_std(
         H = np.linalg.solve(FK, JK.T @ JG)  # and by −H·vec(G) for the g-sensitivity in the turns
         cov = np.linalg.inv(FK) + sg**2 * (H @ H.T)
         if bias == "local":
-            # turn k's bias is ½(ε_k + ε_k+1), ε the rests' mean noise N²/T_rest: the plan predicted the gyro scale
-            # 1.3-2.6x below what calibrate's local bias reached (16 simulated sessions of a 12-pose MTi-1 plan)
+            # turn k's bias is ½(ε_k + ε_k+1), ε the rests' mean noise N²/T_rest, as calibrate's local bias has it
+            # (a few percent of the K std on a 12-pose MTi-1 plan; the turn's window, STATIC_PAD_S, took it 1.5x)
             rest_s = np.full(u.shape[0], static_time_s / u.shape[0]) if rest_weights is None else w
             D = np.zeros((J.shape[0], 3 * u.shape[0]))
             for k in range(u.shape[0] - 1):
@@ -718,11 +718,13 @@ def plan_poses(
     else:
         dwell = min(30.0, max_dwell_s) if dwell_s is None else float(dwell_s)
         reason = "given" if dwell_s is not None else "default; pass targets to derive it"
-        if dwell < MIN_STATIC_S:  # --dwell 0.001 wrote a plan whose rests calibrate cannot find (probe)
+        shortest = MIN_STATIC_S + STATIC_PAD_S
+        if dwell < shortest:  # --dwell 0.001 wrote a plan whose rests calibrate cannot find (probe)
             raise OptinavError(
-                f"--dwell {dwell:g} s is shorter than the {MIN_STATIC_S:g} s a rest must last for optinav calibrate "
-                "to find it (its --min-duration)",
-                f"give --dwell of at least {MIN_STATIC_S:g} s (the plan's predictions assume the whole rest is used)",
+                f"--dwell {dwell:g} s is shorter than the {shortest:g} s a pose must last for optinav calibrate to find "
+                f"its rest (its --min-duration {MIN_STATIC_S:g} s, after the {STATIC_PAD_S:g} s its static detection "
+                "takes from a rest's ends)",
+                f"give --dwell of at least {shortest:g} s",
             )
         if dwell > max_dwell_s:  # --dwell 1e9 printed a 0.00023 deg/h gyro bias 1σ, exit 0
             raise OptinavError(
