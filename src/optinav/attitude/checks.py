@@ -2935,11 +2935,11 @@ def check_mag_lag(bins: np.ndarray, sums: np.ndarray, h: float) -> None:
 
 #: s: a gyro whose rotation turns gravity in the body as the accelerometer sees it best when moved in time by
 #: GYRO_LAG_S or more, leaving at most GYRO_LAG_BETTER of what it leaves unexplained as stamped, is on another clock
-#: than the accelerometer. BROAD's trials split in two files with the gyro 0.1 s late ran at 2.3-33° inclination RMSE
-#: with exit 0 (0.2 s: 3.6-50°; 29 was named "gyro axes swapped"); where judged (02, 03, 24, 33) 0.1 s late leaves
-#: 0.59-0.77 of the unexplained turning at the lag, 0.2 s late 0.34-0.52. Nearer lags are not judged: on a smooth simulated flight
-#: (on time) the share explained peaks 0.05 s off by 0.001, flat, and a few samples' lag is what an accelerometer
-#: filtered more than its gyro has (BROAD's trials 20 ms apart ran at 2-8°: not named)
+#: than the accelerometer. BROAD's trials split in two files with the gyro 0.1 s late ran at 2.3-33° inclination
+#: RMSE with exit 0 (0.2 s: 3.6-50°; 29 was named "gyro axes swapped"); where judged (02, 03, 24, 33) 0.1 s late
+#: leaves 0.59-0.77 of the unexplained turning at the lag, 0.2 s late 0.34-0.52. Nearer lags are not judged: on a
+#: smooth simulated flight (on time) the share explained peaks 0.05 s off by 0.001, flat, and a few samples' lag is
+#: what an accelerometer filtered more than its gyro has (BROAD's trials 20 ms apart ran at 2-8°: not named)
 GYRO_LAG_S, GYRO_LAG_BETTER = 0.08, 0.75
 #: the lag is judged where gravity's turning in the quiet bins is explained this well at the best lag, by the gyro at
 #: a scale within GYRO_LAG_SCALE of 1 (fast translation turns the specific force without the body: not judged)

@@ -34,6 +34,7 @@ __all__ = [
     "solve_motion",
     "MotionSolver",
     "RateState",
+    "rigid_fit",
     "RATE_METHODS",
 ]
 
@@ -491,6 +492,18 @@ def solve_motion(array: AccelerometerArray, acc, t, omega0=None, method: str = "
     return MotionSolver(array, omega0, method)(f, _time(t, f.shape[0]))
 
 
+def rigid_fit(array: AccelerometerArray, acc, omega, P=None) -> tuple[np.ndarray, np.ndarray]:
+    """[A, ω̇] (T, 6) [m/s^2, rad/s^2] by weighted least squares of ``acc − H_quad q(ω)`` (``acc`` (T, N) array
+    outputs m/s², ``omega`` (T, 3) rad/s) and what the rigid-body model leaves of each output (T, N) m/s²; ``P`` the
+    weighted pseudo-inverse of H_lin (6, N) if at hand."""
+    if P is None:
+        wts = array.weights()
+        P = np.linalg.pinv(array.H_lin * wts[:, None]) * wts[None, :]
+    fq = acc - quadratic_products(omega) @ array.H_quad.T
+    x = fq @ P.T
+    return x, fq - x @ array.H_lin.T
+
+
 class MotionSolver:
     """:func:`solve_motion` block by block: each call solves the next epochs of a log with the rate method's
     state carried from the previous call, so a long log needs memory for one block, and the blocks of a log give
@@ -548,8 +561,7 @@ class MotionSolver:
         else:
             w, _, _, self.state = _gauss_newton(self.array, f, t, self.state, **self.options)
         self.rows += t.shape[0]
-        fq = f - quadratic_products(w) @ self.array.H_quad.T
-        x = fq @ self._P.T
+        x, left = rigid_fit(self.array, f, w, self._P)
         # what the rigid-body model leaves of each output (the array has more outputs than A and ω̇ take)
-        self.residual_rms = np.sqrt(np.mean((fq - x @ self.array.H_lin.T) ** 2, axis=0))
+        self.residual_rms = np.sqrt(np.mean(left**2, axis=0))
         return Motion(t, x[:, :3], x[:, 3:], w, f"{self.array.name or 'array'} ({self.method})")

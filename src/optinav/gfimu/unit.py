@@ -10,7 +10,7 @@ import numpy as np
 
 from optinav.core.progress import step
 from optinav.errors import OptinavError
-from optinav.gfimu.array import AccelerometerArray, builtin, identifiability, quadratic_products
+from optinav.gfimu.array import AccelerometerArray, builtin, identifiability
 from optinav.gfimu.turntable import TurntableCalibration, calibrate, g_unit, read_cases
 
 
@@ -185,15 +185,12 @@ def _refit(array, f, t, omega, method: str, sigma) -> tuple[float, float] | None
     (N,) m/s² — on the :data:`CULPRIT_EPOCHS` epochs up to the worst fitted one of the block ``f`` (T, N) m/s² at
     ``t`` (T,) s, whose rate the method gave as ``omega`` (T, 3) rad/s; the filter starts from the method's rate
     there. None for the Gauss–Newton method itself."""
-    from optinav.gfimu.solve import MotionSolver
+    from optinav.gfimu.solve import MotionSolver, rigid_fit
 
     if method == "gauss-newton":
         return None
     sigma = np.asarray(sigma, float)
-    fq = f - quadratic_products(omega) @ array.H_quad.T
-    wts = array.weights()
-    P = np.linalg.pinv(array.H_lin * wts[:, None]) * wts[None, :]
-    res = (fq - (fq @ P.T) @ array.H_lin.T) / sigma
+    res = rigid_fit(array, f, omega)[1] / sigma
     k = int(np.argmax(np.sum(res * res, axis=1)))
     a = max(0, k + 1 - CULPRIT_EPOCHS)
     mine = float(np.median(np.sqrt(np.mean(res[a : k + 1] ** 2, axis=0))))
