@@ -1117,8 +1117,9 @@ def calibrate(
     tau = _autocorr_time(e_after)
     rep = analyze(J, sigma, names=list(PARAM_NAMES), units=["rad"] * 6, scales=np.full(6, SCALE), rel_tol=REL_TOL)
     cov_noise = np.asarray(rep.crlb) * tau
+    JV = J @ V
     cov_sys = (
-        _systematic_cov(prep, p, V, J @ V, r, gyro_misalignment, gyro_scale) if method != "none" else np.zeros((6, 6))
+        _systematic_cov(prep, p, V, JV, r, gyro_misalignment, gyro_scale) if method != "none" else np.zeros((6, 6))
     )
     d = np.zeros(6)
     if method == "pso" and res.shortfall is not None:
@@ -1128,7 +1129,7 @@ def calibrate(
     lat_check = None
     if method != "none":
         std = np.sqrt(np.maximum(np.einsum("ki,ij,kj->k", C, cov, C), 0.0))
-        lat_check = _latitude_gate(prep, p, V, J @ V, C, cnames, std)
+        lat_check = _latitude_gate(prep, p, V, JV, C, cnames, std)
         if lat_check is not None:
             info = {**info, "latitude": lat_check}
     combos, angles, stds = [], {}, {}
