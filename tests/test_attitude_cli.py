@@ -535,3 +535,24 @@ def test_the_report_of_an_estimate_takes_its_log_as_estimated(tmp_path, capsys):
     assert "does not turn as the gyro of" in capsys.readouterr().err
     assert main([*base, "--data", str(fa), "--gyro", str(fg), "--out", str(tmp_path / "ok")]) == 0
     assert "Attitude of acc.csv" in (tmp_path / "ok" / "index.md").read_text()
+
+
+def test_polarization_none_of_which_can_be_used_is_refused(flight, capsys):
+    """A start time in UTC where the flight's zone was +08:00 (or a longitude's sign flipped, or a night) put the
+    sun below the horizon for the whole log: polarization used 0, skipped all, the heading the start's (110° off),
+    exit 0. Refused naming why, streamed and in memory (--report), and by estimate()."""
+    from optinav.attitude import PolarizationMeasurement, estimate
+
+    d, folder, path, site, times = flight
+    utc = times["dynamic"][:19] + "Z"  # the local time read as UTC: 8 h earlier, at night there
+    argv = ["--quiet", "attitude", str(path), "--gyro-unit", "deg/s", "--pol-columns", "aop_deg,dop", "--aop-unit"]
+    argv += ["deg", "--lat", str(np.degrees(site["lat"])), "--lon", str(np.degrees(site["lon"]))]
+    for extra in ([], ["--report", str(folder / "night_rep")]):
+        capsys.readouterr()
+        assert main([*argv, "--start-time", utc, "--out", str(folder / "night.csv"), *extra]) == 2
+        err = capsys.readouterr().err
+        assert "none of the 4001 polarization samples can be used (sun below horizon 4001)" in err, err
+        assert "--start-time (its time zone)" in err and not (folder / "night.csv").exists()
+    below = -np.asarray(d.sun_n)  # the sun's direction mirrored: below the horizon
+    with pytest.raises(Exception, match="none of the 4001 polarization samples can be used"):
+        estimate(d.gyr, d.acc, d.dt, pol=PolarizationMeasurement(d.aop, below, frame="ned"))

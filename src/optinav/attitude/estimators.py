@@ -107,6 +107,7 @@ from optinav.attitude.measurement import (
     predicted_aop,
     up_vector,
     wrap_axial,
+    unusable_pol_error,
 )
 from optinav.core.results import (
     Array,
@@ -781,6 +782,10 @@ def estimate(
         raise OptinavError(f"method {method} takes no magnetometer", "use --method iframe with --mag-columns")
     if offline and method != "iframe":
         raise OptinavError(f"method {method} has no offline mode", "use --method iframe with --offline")
+    if pol is not None and len(pol) == n and n:
+        use, skipped = pol.usable()
+        if not use.any():  # asked for, none usable: the heading was the start's with exit 0
+            raise unusable_pol_error(skipped, n)
     gaps = find_gaps(dts)
     # polarization alone without q0: the heading's branch is the recording's to decide, from iframe's runs from
     # either (optinav.attitude.branch); a magnetometer's field picks it as the estimate starts

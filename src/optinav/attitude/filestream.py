@@ -1406,6 +1406,7 @@ def stream_attitude(
 
     step("checks")
     checks, bad, aop_lo, aop_hi, aop_n, t_first, t_last = StreamChecks(), 0, np.inf, -np.inf, 0, None, None
+    pol_usable, pol_skipped = 0, {}  # polarization samples the estimate can use, and the others by reason
     first = {}  # the first row with an AoP ("aop") and with a field ("mag"): whether the field sets the branch
     checks.bias_clip, checks.method = bias_clip(method, _options(method, dict(o.options)), o.input_stage), method
     for _, t, gyr, acc, dts, finite, extra in progress_blocks(src, "attitude: checks", progress):
@@ -1420,6 +1421,9 @@ def stream_attitude(
             elif "witness" in extra:
                 checks.add_witness(extra["witness"], gyr)
         if pol is not None:
+            use, skipped = _block_pol(pol, extra, t, t_first, frame).usable()
+            pol_usable += int(np.count_nonzero(use))
+            pol_skipped = {k: pol_skipped.get(k, 0) + v for k, v in skipped.items()}
             a = extra["aop"][np.isfinite(extra["aop"])]
             if a.size:
                 aop_lo, aop_hi, aop_n = min(aop_lo, float(a.min())), max(aop_hi, float(a.max())), aop_n + a.size
@@ -1430,6 +1434,10 @@ def stream_attitude(
         raise OptinavError(*nan_rows_error(path, bad))
     if pol is not None and aop_n:
         aop_range(aop_lo, aop_hi, aop_n, pol.aop_unit)
+    if pol is not None and checks.n and not pol_usable:
+        from optinav.attitude.measurement import unusable_pol_error
+
+        raise unusable_pol_error(pol_skipped, checks.n)
     checks.gyro_unit = src.gyro_unit
     src.witness = None  # the checks have its sums: the second pass reads no magnetometer the estimate does not take
     checks.finish_first()

@@ -268,6 +268,18 @@ def sun_in_sensor(q_b_n, sun_n, C_b_m) -> np.ndarray:
     return np.einsum("...ji,...j->...i", dcm_from_quat(q), s) @ np.asarray(C_b_m, float).T
 
 
+def unusable_pol_error(skipped: dict, n: int) -> OptinavError:
+    """The refusal of a log none of whose ``n`` polarization samples can be used (``skipped``: the counts of
+    :meth:`PolarizationMeasurement.usable`): the heading was the start's, exit 0 (the sun below the horizon for the
+    whole log: a time zone or a longitude's sign off, or a night)."""
+    why = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in skipped.items() if v)
+    return OptinavError(
+        f"none of the {n} polarization samples can be used ({why}): the heading would be the start's alone",
+        "check --start-time (its time zone), --lon (east positive) and --lat, or the AoP/DoP columns; drop "
+        "--pol-columns to estimate without polarization",
+    )
+
+
 def pol_inputs(pol, n: int, frame: str, what: str = "the IMU"):
     """The kernels' polarization inputs for ``n`` samples: (usable mask, sun_n, C_b_m, AoP with 0 where unusable,
     sin² of the minimum sun separation, skipped counts); ``pol`` None gives "never usable"."""
