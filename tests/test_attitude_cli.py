@@ -556,3 +556,19 @@ def test_polarization_none_of_which_can_be_used_is_refused(flight, capsys):
     below = -np.asarray(d.sun_n)  # the sun's direction mirrored: below the horizon
     with pytest.raises(Exception, match="none of the 4001 polarization samples can be used"):
         estimate(d.gyr, d.acc, d.dt, pol=PolarizationMeasurement(d.aop, below, frame="ned"))
+
+
+def test_an_aop_that_fits_neither_heading_branch_is_named(flight, tmp_path, capsys):
+    """The AoP with its sign mirrored left 28.5° of robust residual on both heading branches and was refused as
+    "ambiguous by 180°: pass --q0-deg", which then ran at 69-108° heading RMSE with exit 0. The refusal now says the
+    AoP fits neither branch and names the convention, mounting and columns."""
+    d, folder, path, site, times = flight
+    data = np.genfromtxt(path, delimiter=",", names=True)
+    neg = tmp_path / "neg.csv"
+    cols = [data[c] for c in ("t", "ax", "ay", "az", "gx", "gy", "gz")] + [-data["aop_deg"], data["dop"]]
+    np.savetxt(neg, np.column_stack(cols), delimiter=",", header="t,ax,ay,az,gx,gy,gz,aop_deg,dop", comments="")
+    argv = ["--quiet", "attitude", str(neg), "--gyro-unit", "deg/s", "--pol-columns", "aop_deg,dop", "--aop-unit"]
+    argv += ["deg", "--lat", str(np.degrees(site["lat"])), "--lon", str(np.degrees(site["lon"])), "--height", "35"]
+    assert main([*argv, "--start-time", times["dynamic"], "--out", str(tmp_path / "a.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "fits the sky's polarization pattern on neither heading branch" in err and "--pol-columns" in err, err

@@ -59,11 +59,26 @@ def weakest(rms) -> np.ndarray | None:
     return min(rms, key=lambda r: r[1] ** 2 - r[0] ** 2) if rms else None
 
 
+#: rad: an AoP whose residual's robust scale on the better branch exceeds this fits the model on neither (a
+#: polarization sensor's noise is a few degrees at most): its sign mirrored, its reference axis 90° off or the AoP
+#: and DoP columns swapped left 28.5° and were refused as "ambiguous by 180°, pass --q0-deg", which then ran at
+#: 46-108° heading RMSE with exit 0
+AOP_MISFIT = float(np.radians(10.0))
+
+
 def branch_error(rms, sigma: float, tilt: float) -> OptinavError:
     """The refusal of a heading whose two branches explain the AoP alike: ``rms`` (2,) rad the AoP residual RMS
     of the runs from either, ``sigma`` rad the noise, ``tilt`` rad the viewing axis's largest angle from the
-    vertical."""
+    vertical; beyond :data:`AOP_MISFIT` the AoP fits neither, said so."""
     a, b = np.degrees(rms)
+    if sigma > AOP_MISFIT:
+        return OptinavError(
+            f"the AoP fits the sky's polarization pattern on neither heading branch (residual RMS {a:.2f}° and "
+            f"{b:.2f}°, robust scale {np.degrees(sigma):.2f}°; a polarization sensor's noise is a few degrees): the "
+            "AoP's sign or reference axis, or the columns, are not what the model takes",
+            "check the AoP's convention (the angle from the sensor's X_m axis to the polarization direction, "
+            "docs/methods/attitude.md) and sign, the sensor's mounting, and that --pol-columns names AOP then DOP",
+        )
     return OptinavError(
         "the heading from skylight polarization alone is ambiguous by 180° here: estimated from either branch the "
         f"AoP residuals are alike (RMS {a:.2f}° and {b:.2f}°, noise {np.degrees(sigma):.2f}°; the viewing axis "
