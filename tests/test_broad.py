@@ -3233,3 +3233,22 @@ def test_an_offset_the_norm_shows_on_a_body_turning_too_fast_for_the_steps_is_re
         # as recorded it runs: 5.7° online (from the first sample's heading, 98° off, in fast rotation), 0.8° offline
         r = estimate(tr.gyr[sl], tr.acc[sl], tr.dt, frame="ENU", mag=tr.mag[sl], offline=offline)
         assert rmse(np.degrees(heading_error(r.q_b_n, tr.q_ref[sl])), tr.eval_mask[sl]) < (1.5 if offline else 7.0)
+
+
+def test_a_magnetometer_turned_half_a_turn_names_both_readings_its_turning_allows():
+    """A magnetometer turned 180° about its z axis (x and y negated) on a simulated flight (its angle to gravity
+    barely changes: the turning judges it) was named "z reads -z": a field and its negative turn alike in the body,
+    and that reading, followed, ran at a heading 178° off with exit 0. Both readings are named, and how to tell
+    them apart."""
+    from optinav.attitude import simulate
+    from optinav.core.rotations import dcm_from_quat
+    from optinav.errors import OptinavError
+
+    fl = simulate("dynamic", duration_s=30.0, rng=1)
+    C = dcm_from_quat(fl.q_b_n)  # C_b^n
+    m_b = np.einsum("nji,j->ni", C, [20.0, -3.0, 45.0]) + np.random.default_rng(3).normal(0, 0.3, (len(C), 3))
+    with pytest.raises(OptinavError) as exc:
+        estimate(fl.gyr, fl.acc, fl.dt, mag=m_b * [-1.0, -1.0, 1.0])
+    text = str(exc.value)
+    assert "magnetometer x reads -x, magnetometer y reads -y" in text and "z reads -z" in text, text
+    assert "field points down north of the magnetic equator" in text, text

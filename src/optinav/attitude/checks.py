@@ -2730,10 +2730,16 @@ def mag_turn_hint(m: np.ndarray, w: np.ndarray, nxt: np.ndarray, h: float) -> st
     best, i = min((residual(P)[0], i) for i, P in enumerate(perms[1:], 1))
     if best >= MAG_TURN_SHARE * declared:
         return ""
+    # a field and its negative turn alike: P and −P are named both (the first alone, z negated, was followed for a
+    # magnetometer turned 180° about z, x and y negated: heading 178° off, exit 0)
+    other = "" if np.array_equal(-perms[i], np.eye(3)) else (
+        f" or as {describe_permutation(-perms[i], 'magnetometer', 'IMU axes')} (the turning cannot tell the two "
+        "apart: the one whose field points down north of the magnetic equator, up south of it)"
+    )  # fmt: skip
     return (
         f"the magnetic field turns in the body unlike the gyro says ({declared:.0%} of its turning unexplained), "
         f"{best:.0%} with the magnetometer's axes read as {describe_permutation(perms[i], 'magnetometer', 'IMU axes')}"
-        ": its axes are not the IMU's"
+        f"{other}: its axes are not the IMU's"
     )
 
 
@@ -2872,12 +2878,22 @@ def _turns_with_gyro_otherwise(bins: np.ndarray, sums: np.ndarray, h: float) -> 
     from optinav.core.rotations import describe_permutation, signed_permutations
 
     bins, sums = merge_bins(np.asarray(bins), np.asarray(sums, float))
-    tried = []
+    tried, seen = [], []
     for P in signed_permutations()[1:]:
+        # a field and its negative turn alike: P and −P are one reading to this test, both named (the first named
+        # alone, z negated, was followed for a magnetometer turned 180° about z: heading 178° off, exit 0)
+        if any(np.array_equal(P, -Q) for Q in seen):
+            continue
+        seen.append(P)
         q = sums.copy()
         q[:, :3] = sums[:, :3] @ P
-        tried.append((q, f"with the magnetometer's axes read as {describe_permutation(P, 'magnetometer', 'IMU axes')}",
-                      MAG_AXES_REMEDY))  # fmt: skip
+        how = f"with the magnetometer's axes read as {describe_permutation(P, 'magnetometer', 'IMU axes')}"
+        if not np.array_equal(-P, np.eye(3)):
+            how += (
+                f" or as {describe_permutation(-P, 'magnetometer', 'IMU axes')} (the turning cannot tell the two "
+                "apart: the one whose field points down north of the magnetic equator, up south of it)"
+            )
+        tried.append((q, how, MAG_AXES_REMEDY))
     lag = max(1, int(round(WITNESS_LAG_S / h)))
     for j in (*range(-lag, 0), *range(1, lag + 1)):
         tried.append((_field_shifted(bins, sums, j), f"with the field taken {abs(j) * h:.2g} s {'later' if j > 0 else 'earlier'}",
