@@ -2713,7 +2713,7 @@ def mag_turn_hint(m: np.ndarray, w: np.ndarray, nxt: np.ndarray, h: float) -> st
     (:func:`_turns`; ``h`` s a bin). A layout that keeps the field's angle to gravity on a body that mostly yaws
     (the AK8963's x and y swapped, z negated: BROAD 11, 16, 27, 29, 33 ran with exit 0 at a heading 101-131° off)
     turns the field against the gyro."""
-    from optinav.core.rotations import describe_permutation, signed_permutations
+    from optinav.core.rotations import signed_permutations
 
     nxt = nxt & (_norm(0.5 * (w[1:, :3] + w[:-1, :3])) * h <= MAG_TURN_STEP)
 
@@ -2730,16 +2730,24 @@ def mag_turn_hint(m: np.ndarray, w: np.ndarray, nxt: np.ndarray, h: float) -> st
     best, i = min((residual(P)[0], i) for i, P in enumerate(perms[1:], 1))
     if best >= MAG_TURN_SHARE * declared:
         return ""
-    # a field and its negative turn alike: P and −P are named both (the first alone, z negated, was followed for a
-    # magnetometer turned 180° about z, x and y negated: heading 178° off, exit 0)
-    other = "" if np.array_equal(-perms[i], np.eye(3)) else (
-        f" or as {describe_permutation(-perms[i], 'magnetometer', 'IMU axes')} (the turning cannot tell the two "
-        "apart: the one whose field points down north of the magnetic equator, up south of it)"
-    )  # fmt: skip
     return (
         f"the magnetic field turns in the body unlike the gyro says ({declared:.0%} of its turning unexplained), "
-        f"{best:.0%} with the magnetometer's axes read as {describe_permutation(perms[i], 'magnetometer', 'IMU axes')}"
-        f"{other}: its axes are not the IMU's"
+        f"{best:.0%} with the magnetometer's axes read as {_mag_reading_words(perms[i])}: its axes are not the IMU's"
+    )
+
+
+def _mag_reading_words(P) -> str:
+    """The magnetometer's axes read as the signed permutation ``P`` and, but where that is the IMU's own, as −P: a
+    field and its negative turn alike in the body, so the turning names both (the first alone, z negated, was
+    followed for a magnetometer turned 180° about z, x and y negated: heading 178° off, exit 0)."""
+    from optinav.core.rotations import describe_permutation
+
+    words = describe_permutation(P, "magnetometer", "IMU axes")
+    if np.array_equal(-np.asarray(P), np.eye(3)):
+        return words
+    return (
+        f"{words} or as {describe_permutation(-np.asarray(P), 'magnetometer', 'IMU axes')} (the turning cannot tell "
+        "the two apart: the one whose field points down north of the magnetic equator, up south of it)"
     )
 
 
@@ -2875,7 +2883,7 @@ def _turns_with_gyro_otherwise(bins: np.ndarray, sums: np.ndarray, h: float) -> 
     (:func:`mag_gyro_scale`, factor > 0) with the magnetometer's axes in another signed order, or the field moved
     in time by up to :data:`WITNESS_LAG_S`, what reading does it and its remedy; (0, "", "") when none does.
     ``bins``, ``sums`` of :func:`field_rate_sums`, ``h`` s a bin."""
-    from optinav.core.rotations import describe_permutation, signed_permutations
+    from optinav.core.rotations import signed_permutations
 
     bins, sums = merge_bins(np.asarray(bins), np.asarray(sums, float))
     tried, seen = [], []
@@ -2887,13 +2895,7 @@ def _turns_with_gyro_otherwise(bins: np.ndarray, sums: np.ndarray, h: float) -> 
         seen.append(P)
         q = sums.copy()
         q[:, :3] = sums[:, :3] @ P
-        how = f"with the magnetometer's axes read as {describe_permutation(P, 'magnetometer', 'IMU axes')}"
-        if not np.array_equal(-P, np.eye(3)):
-            how += (
-                f" or as {describe_permutation(-P, 'magnetometer', 'IMU axes')} (the turning cannot tell the two "
-                "apart: the one whose field points down north of the magnetic equator, up south of it)"
-            )
-        tried.append((q, how, MAG_AXES_REMEDY))
+        tried.append((q, f"with the magnetometer's axes read as {_mag_reading_words(P)}", MAG_AXES_REMEDY))
     lag = max(1, int(round(WITNESS_LAG_S / h)))
     for j in (*range(-lag, 0), *range(1, lag + 1)):
         tried.append((_field_shifted(bins, sums, j), f"with the field taken {abs(j) * h:.2g} s {'later' if j > 0 else 'earlier'}",
@@ -2907,11 +2909,16 @@ def _turns_with_gyro_otherwise(bins: np.ndarray, sums: np.ndarray, h: float) -> 
     return best
 
 
+def _bins_ahead(bins: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray]:
+    """(index of bin i + j among ``bins`` (sorted bin numbers), whether it is there) for each bin i."""
+    at = np.minimum(np.searchsorted(bins, bins + j), bins.size - 1)
+    return at, bins[at] == bins + j
+
+
 def _field_shifted(bins: np.ndarray, sums: np.ndarray, j: int) -> np.ndarray:
     """``sums`` of :func:`field_rate_sums` with the field of bin i + j beside the gyro of bin i (none where that bin
     is missing)."""
-    at = np.minimum(np.searchsorted(bins, bins + j), bins.size - 1)
-    ok = bins[at] == bins + j
+    at, ok = _bins_ahead(bins, j)
     q = sums.copy()
     q[:, :4] = np.where(ok[:, None], sums[at, :4], 0.0)
     return q
@@ -2978,8 +2985,8 @@ def gyro_lag(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[float, float
         for i, j in enumerate(js):
             # the specific force of bin i + j beside the gyro of bin i (NaN where that bin is missing), the bins'
             # means taken once (:func:`mag_gyro_scale` of :func:`_field_shifted` for each j took 11 ms per minute)
-            at = np.minimum(np.searchsorted(both, both + j), both.size - 1)
-            mj = np.where((both[at] == both + j)[:, None], m[at], np.nan)
+            at, ok = _bins_ahead(both, int(j))
+            mj = np.where(ok[:, None], m[at], np.nan)
             got[i] = _scale_fit(_quiet_of(both, mj, w), h)
     e = np.where(np.isfinite(got[:, 1]), got[:, 1], 0.0)
     i = int(np.argmax(e))

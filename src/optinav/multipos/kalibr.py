@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from optinav.core.allan import KALIBR_UNITS
 from optinav.core.files import read_text, write_text
 from optinav.errors import OptinavError
 
@@ -159,7 +160,7 @@ RW_BOUND_MAX = 1.0
 #: the flag that writes a random-walk bound above :data:`RW_BOUND_MAX` anyway
 RW_BOUND_FLAG = "--allow-rw-bound"
 
-_RW_UNITS = {"accelerometer": "m/s^3/sqrt(Hz)", "gyroscope": "rad/s^2/sqrt(Hz)"}
+_RW_UNITS = {sensor: units[1] for sensor, units in KALIBR_UNITS.items()}
 
 
 def _span(seconds: float) -> str:
@@ -243,10 +244,9 @@ def write_kalibr_imu_yaml(
                 "(calibrate and apply raw counts first)",
             )
         units = {
-            "accelerometer_noise_density": "m/s^2/sqrt(Hz)",
-            "accelerometer_random_walk": "m/s^3/sqrt(Hz)",
-            "gyroscope_noise_density": "rad/s/sqrt(Hz)",
-            "gyroscope_random_walk": "rad/s^2/sqrt(Hz)",
+            f"{sensor}_{kind}": unit
+            for sensor, pair in KALIBR_UNITS.items()
+            for kind, unit in zip(("noise_density", "random_walk"), pair)
         }
         head.append(
             "# noise: continuous-time white-noise density N and random walk K of the five-term Allan fit (a rate ramp "

@@ -298,7 +298,7 @@ class SessionStream:
             )
         )
         dwell = np.r_[rest_s, np.full(len(ups), check_positive(dwell_s, "dwell_s"))]
-        turns = np.asarray(as_float_array(transition_s, "transition_s"), float).ravel()
+        turns = as_float_array(transition_s, "transition_s").ravel()
         if turns.size not in (1, len(ups) - 1) or not np.all(turns > 0):
             raise OptinavError(
                 f"transition_s holds {turns.size} durations for {len(ups) - 1} turns between poses",
