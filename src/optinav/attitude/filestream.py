@@ -1406,7 +1406,7 @@ def stream_attitude(
 
     step("checks")
     checks, bad, aop_lo, aop_hi, aop_n, t_first, t_last = StreamChecks(), 0, np.inf, -np.inf, 0, None, None
-    pol_usable, pol_skipped = 0, {}  # polarization samples the estimate can use, and the others by reason
+    pol_usable, pol_skipped = False, {}  # a polarization sample the estimate can use seen; the others by reason
     first = {}  # the first row with an AoP ("aop") and with a field ("mag"): whether the field sets the branch
     checks.bias_clip, checks.method = bias_clip(method, _options(method, dict(o.options)), o.input_stage), method
     for _, t, gyr, acc, dts, finite, extra in progress_blocks(src, "attitude: checks", progress):
@@ -1420,10 +1420,17 @@ def stream_attitude(
                 checks.add_mag(extra["mag"], acc, gyr)
             elif "witness" in extra:
                 checks.add_witness(extra["witness"], gyr)
+        if pol is not None and not pol_usable:
+            # the sun along the log costs ~3.6 µs a sample and the estimate's pass computes it again: once a sample
+            # is usable nothing more is needed, and every 64th row finds one in a block that has some
+            sub = {k: extra[k][::64] for k in ("aop", "dop") if k in extra}
+            if _block_pol(pol, sub, t[::64], t_first, frame).usable()[0].any():
+                pol_usable = True
+            else:
+                use, skipped = _block_pol(pol, extra, t, t_first, frame).usable()
+                pol_usable = bool(use.any())
+                pol_skipped = {k: pol_skipped.get(k, 0) + v for k, v in skipped.items()}
         if pol is not None:
-            use, skipped = _block_pol(pol, extra, t, t_first, frame).usable()
-            pol_usable += int(np.count_nonzero(use))
-            pol_skipped = {k: pol_skipped.get(k, 0) + v for k, v in skipped.items()}
             a = extra["aop"][np.isfinite(extra["aop"])]
             if a.size:
                 aop_lo, aop_hi, aop_n = min(aop_lo, float(a.min())), max(aop_hi, float(a.max())), aop_n + a.size
