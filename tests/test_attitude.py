@@ -170,7 +170,7 @@ def test_skipped_polarization_is_counted():
     sun[50:100] = [0.0, 0.0, -1.0]  # at the zenith: on the viewing axis of a near-level sensor
     dop = np.full(n, 0.5)
     dop[100:130] = 0.01
-    aop = aop_truth(d["q"], sun[0], DEFAULT_C_B_M)
+    aop = aop_truth(d["q"], d["sun"], DEFAULT_C_B_M)  # the sun of the samples used
     aop[130:140] = np.nan
     pol = PolarizationMeasurement(aop, sun, dop=dop)
     res = estimate(d["gyr"], d["acc"], d["dt"], pol=pol, method="qn", q0=d["q_start"])
@@ -831,6 +831,37 @@ def test_a_level_body_under_a_zenith_sensor_is_refused_without_q0():
         r = estimate(d["gyr"], d["acc"], d["dt"], pol=pol, q0=d["q_start"], **kw)
         h = _heading_deg(r.q_b_n, d["q"])
         assert rmse(h[500:]) < np.degrees(_AOP_SIGMA) / 2 and r.pol_branch_rms is None, (kw, rmse(h[500:]))
+
+
+@pytest.mark.parametrize("kw", [{}, {"method": "iframe"}, {"offline": True}, {"method": "qn"}],
+                         ids=["mekf", "iframe", "offline", "qn"])  # fmt: skip
+def test_a_q0_the_aop_contradicts_is_refused(kw):
+    """From q0 the AoP's branch nearest its heading is taken. A q0 180° off ran 179° off with exit 0, one 90° off
+    (or an AoP whose reference axis is 90° off) 90° off, an AoP of the other sign 69-108°: iframe from q0 and from
+    q0 turned 180° about up, the AoP residuals (1.0° against 33°) name the first, the first polarization sample's
+    turn of the heading (90°, beyond 45°) the second, the residuals' robust scale (28°) the third. A q0 30° off
+    follows the AoP; a level body keeps q0's branch (test above)."""
+    d = _start_150()
+    pol = PolarizationMeasurement(d["aop"], d["sun"])
+    up = np.array([0.0, 0.0, -1.0])  # NED
+
+    def turned(deg):
+        return quat_multiply(quat_from_rotvec(np.radians(deg) * up), d["q_start"])
+
+    for deg in (0.0, 30.0):
+        r = estimate(d["gyr"], d["acc"], d["dt"], pol=pol, q0=turned(deg), **kw)
+        h = _heading_deg(r.q_b_n, d["q"])
+        assert rmse(h[1000:]) < np.degrees(_AOP_SIGMA) / 2 and r.pol_branch_rms is None, (deg, rmse(h[1000:]))
+    for deg, words in (
+        (180.0, "is 180° from the one the AoP shows"),
+        (90.0, r"turns the heading (8\d|9\d)\.\d° from q0"),
+    ):
+        with pytest.raises(OptinavError, match=words) as e:
+            estimate(d["gyr"], d["acc"], d["dt"], pol=pol, q0=turned(deg), **kw)
+        assert "--q0-deg" in str(e.value) and "\n" not in str(e.value)
+    mirrored = PolarizationMeasurement(-d["aop"], d["sun"])
+    with pytest.raises(OptinavError, match="fits the sky's polarization pattern on neither heading branch"):
+        estimate(d["gyr"], d["acc"], d["dt"], pol=mirrored, q0=d["q_start"], **kw)
 
 
 def test_with_a_magnetometer_the_field_picks_the_heading_branch():

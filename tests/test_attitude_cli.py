@@ -558,6 +558,28 @@ def test_polarization_none_of_which_can_be_used_is_refused(flight, capsys):
         estimate(d.gyr, d.acc, d.dt, pol=PolarizationMeasurement(d.aop, below, frame="ned"))
 
 
+def test_a_q0_the_aop_contradicts_is_refused_streamed(flight, tmp_path, capsys):
+    """--q0-deg with its yaw 180° off ran 179° off, 90° off (or the AoP's reference axis 90° off) 90° off, with exit
+    0: streamed (in blocks, online and offline) the runs from q0 and from q0 turned 180° refuse both, no output
+    written; the true start passes."""
+    from optinav.core.rotations import euler_from_quat
+
+    d, folder, path, site, times = flight
+    roll, pitch, yaw = np.degrees(euler_from_quat(d.q_b_n[0], "ned"))
+    argv = ["--quiet", "attitude", str(path), "--gyro-unit", "deg/s", "--pol-columns", "aop_deg,dop", "--aop-unit"]
+    argv += ["deg", "--lat", str(np.degrees(site["lat"])), "--lon", str(np.degrees(site["lon"])), "--height", "35"]
+    argv += ["--start-time", times["dynamic"], "--chunk-rows", "700"]
+    for extra in ([], ["--offline"], ["--method", "iframe"]):
+        out = tmp_path / "a.csv"
+        assert main([*argv, *extra, f"--q0-deg={roll},{pitch},{yaw}", "--out", str(out)]) == 0
+        out.unlink()
+        for off, words in ((180.0, "is 180° from the one the AoP shows"), (90.0, "turns the heading")):
+            capsys.readouterr()
+            assert main([*argv, *extra, f"--q0-deg={roll},{pitch},{yaw + off}", "--out", str(out)]) == 2
+            err = capsys.readouterr().err
+            assert words in err and "--q0-deg" in err and err.count("\n") == 1 and not out.exists(), (extra, err)
+
+
 def test_an_aop_that_fits_neither_heading_branch_is_named(flight, tmp_path, capsys):
     """The AoP with its sign mirrored left 28.5° of robust residual on both heading branches and was refused as
     "ambiguous by 180°: pass --q0-deg", which then ran at 69-108° heading RMSE with exit 0. The refusal now says the

@@ -9,8 +9,9 @@ or the other; iframe's tilt never sees the heading, so the two runs differ in th
 explains at a branch's tilt counts against it with its residual): the branch whose mean square is lower by more
 than :data:`BRANCH_MARGIN` noise variances is taken, the noise σ the better branch's robust residual scale (at least
 :data:`MIN_AOP_NOISE`); two branches within that margin (a level body under a zenith-viewing sensor) are refused
-(:meth:`BranchResiduals.verdict`). With ``q0`` or a magnetometer the heading is known from the start and nothing is
-decided here. Residuals are gathered block by block, so a log read in blocks decides as the whole log does.
+(:meth:`BranchResiduals.verdict`). With a magnetometer the heading is known from the start and nothing is decided
+here; with ``q0`` its branch is taken, and the same runs, from q0 and from q0 turned 180° about up, refuse an AoP that
+contradicts it (``verdict(fixed=True)``). Residuals are gathered block by block, so a log read in blocks decides as the whole log does.
 """
 
 from __future__ import annotations
@@ -22,7 +23,16 @@ import numpy as np
 from optinav.core.rotations import quat_rotate
 from optinav.errors import OptinavError
 
-__all__ = ["BRANCHES", "BRANCH_MARGIN", "MIN_AOP_NOISE", "MIN_HELD", "Branch", "BranchResiduals", "HeldBranch"]
+__all__ = [
+    "BRANCHES",
+    "BRANCH_MARGIN",
+    "MIN_AOP_NOISE",
+    "MIN_HELD",
+    "Q0_TURN",
+    "Branch",
+    "BranchResiduals",
+    "HeldBranch",
+]
 
 #: the two starts (``other_root``): the polarization's first used sample takes the AoP's root nearest the start's
 #: heading (iframe: δ = 0; the others: |ψ| ≤ 90° for a level sensor), or the other one
@@ -66,19 +76,55 @@ def weakest(rms) -> np.ndarray | None:
 AOP_MISFIT = float(np.radians(10.0))
 
 
+def misfit_error(rms, sigma: float) -> OptinavError:
+    """The refusal of an AoP whose residuals' robust scale ``sigma`` rad exceeds :data:`AOP_MISFIT` from either
+    heading branch (``rms`` (2,) rad the residual RMS of the runs from either)."""
+    a, b = np.degrees(rms)
+    return OptinavError(
+        f"the AoP fits the sky's polarization pattern on neither heading branch (residual RMS {a:.2f}° and "
+        f"{b:.2f}°, robust scale {np.degrees(sigma):.2f}°; a polarization sensor's noise is a few degrees): the "
+        "AoP's sign or reference axis, or the columns, are not what the model takes",
+        "check the AoP's convention (the angle from the sensor's X_m axis to the polarization direction, "
+        "docs/methods/attitude.md) and sign, the sensor's mounting, and that --pol-columns names AOP then DOP",
+    )
+
+
+#: rad: from q0 the polarization's first used sample may turn the heading by this at most (to the AoP's heading
+#: nearest q0's). A q0 chooses the branch (its yaw within 90° of the truth); a turn beyond 45° says q0's yaw or
+#: the AoP (its reference axis 90° off: 90° heading error with exit 0), the mounting or the sun is off by it
+Q0_TURN = float(np.radians(45.0))
+
+
+def q0_branch_error(rms, sigma: float) -> OptinavError:
+    """The refusal of a q0 on the heading branch the AoP contradicts: ``rms`` (2,) rad the residual RMS of the runs
+    from q0 and from q0 turned 180° about up, ``sigma`` rad the noise. A q0 180° off ran 179° off with exit 0."""
+    a, b = np.degrees(rms)
+    return OptinavError(
+        f"the initial attitude's heading (q0) is 180° from the one the AoP shows: estimated from q0 the AoP "
+        f"residual RMS is {a:.2f}°, from q0 turned 180° about up {b:.2f}° (noise {np.degrees(sigma):.2f}°)",
+        "check q0's yaw and its frame (--q0-deg ROLL,PITCH,YAW, docs/conventions.md), or drop it: the recording's "
+        "tilting motion decides the heading's branch",
+    )
+
+
+def q0_turn_error(turn: float) -> OptinavError:
+    """The refusal of a q0 whose heading the first used polarization sample turns by ``turn`` rad (beyond
+    :data:`Q0_TURN`)."""
+    return OptinavError(
+        f"the first polarization sample used turns the heading {np.degrees(turn):.1f}° from q0's (to the AoP's "
+        "heading nearest it): q0's yaw, the AoP's reference axis or sign, the sensor's mounting or the sun (place, "
+        "time and its zone) is off by that",
+        "check them (the AoP is the angle from the sensor's X_m axis to the polarization direction, "
+        "docs/methods/attitude.md); a q0 whose yaw is not known within 45° is better dropped (--q0-deg): the "
+        "recording's tilting motion decides the heading's branch",
+    )
+
+
 def branch_error(rms, sigma: float, tilt: float) -> OptinavError:
     """The refusal of a heading whose two branches explain the AoP alike: ``rms`` (2,) rad the AoP residual RMS
     of the runs from either, ``sigma`` rad the noise, ``tilt`` rad the viewing axis's largest angle from the
-    vertical; beyond :data:`AOP_MISFIT` the AoP fits neither, said so."""
+    vertical."""
     a, b = np.degrees(rms)
-    if sigma > AOP_MISFIT:
-        return OptinavError(
-            f"the AoP fits the sky's polarization pattern on neither heading branch (residual RMS {a:.2f}° and "
-            f"{b:.2f}°, robust scale {np.degrees(sigma):.2f}°; a polarization sensor's noise is a few degrees): the "
-            "AoP's sign or reference axis, or the columns, are not what the model takes",
-            "check the AoP's convention (the angle from the sensor's X_m axis to the polarization direction, "
-            "docs/methods/attitude.md) and sign, the sensor's mounting, and that --pol-columns names AOP then DOP",
-        )
     return OptinavError(
         "the heading from skylight polarization alone is ambiguous by 180° here: estimated from either branch the "
         f"AoP residuals are alike (RMS {a:.2f}° and {b:.2f}°, noise {np.degrees(sigma):.2f}°; the viewing axis "
@@ -118,6 +164,7 @@ class BranchResiduals:
         self.sq = [0, 0]  # Σr² per branch in units of _SQ rad², exact: the same sum however the log is cut in blocks
         self.counts = np.zeros((2, _EDGES.size + 1), np.int64)  # |r| per branch by bin
         self.tilt = 0.0  # rad, the viewing axis's largest angle from the vertical (branch 0's attitude)
+        self.turn = None  # rad, from q0: the heading turn at the first polarization sample used (add_turn)
 
     def add(self, q0_b_n, q1_b_n, use, sun_n, aop) -> None:
         """One block: the runs' attitudes ``q0_b_n``, ``q1_b_n`` (n, 4) [w, x, y, z], the usable samples ``use``
@@ -150,17 +197,39 @@ class BranchResiduals:
         frac = (0.5 * c[-1] - below) / max(self.counts[k, i], 1)
         return 1.4826 * float(lo + frac * (hi - lo))
 
-    def verdict(self) -> tuple[int, np.ndarray | None]:
+    def add_turn(self, q_b_n, used, before) -> None:
+        """One block of the run from q0 (branch 0): its attitudes ``q_b_n`` (n, 4), the polarization samples it
+        used ``used`` (n,) bool and the attitude ``before`` its first row (q0, or the last row of the block before):
+        the heading turn at the first used sample (:data:`Q0_TURN`) is kept."""
+        from optinav.attitude.metrics import heading_error
+
+        if self.turn is None and np.any(used):
+            k = int(np.argmax(used))
+            prev = np.asarray(before, float) if k == 0 else q_b_n[k - 1]
+            self.turn = float(heading_error(q_b_n[k : k + 1], prev[None, :])[0])
+
+    def verdict(self, fixed: bool = False) -> tuple[int, np.ndarray | None]:
         """The branch the AoP takes and the residual RMS (2,) rad of it and of the other; (0, None) where no
-        sample was usable (no heading from polarization: the gyro's, as without it). Two branches within
-        :data:`BRANCH_MARGIN` raise :func:`branch_error`."""
+        sample was usable (no heading from polarization: the gyro's, as without it). An AoP beyond
+        :data:`AOP_MISFIT` raises :func:`misfit_error`. Two branches within :data:`BRANCH_MARGIN` raise
+        :func:`branch_error`; with ``fixed`` (branch 0 started from q0) they keep q0's branch, and the other one
+        taken (:func:`q0_branch_error`) or q0's heading turned beyond :data:`Q0_TURN` (:meth:`add_turn`) raise."""
         if self.n == 0:
             return 0, None
         ms = np.array(self.sq, float) * _SQ / self.n
         k = int(np.argmin(ms))
         sigma = max(self._sigma(k), MIN_AOP_NOISE)
         rms = np.sqrt(ms[[k, 1 - k]])
-        if ms[1 - k] - ms[k] <= BRANCH_MARGIN * sigma**2:
+        if sigma > AOP_MISFIT:
+            raise misfit_error(rms, sigma)
+        alike = ms[1 - k] - ms[k] <= BRANCH_MARGIN * sigma**2
+        if fixed:  # a q0 90° off turns to either root: named by its turn, not as 180° off
+            if self.turn is not None and self.turn > Q0_TURN:
+                raise q0_turn_error(self.turn)
+            if k == 1 and not alike:
+                raise q0_branch_error(rms[::-1], sigma)
+            return 0, np.sqrt(ms)
+        if alike:
             raise branch_error(rms, sigma, self.tilt)
         return k, rms
 

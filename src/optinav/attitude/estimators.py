@@ -712,7 +712,8 @@ def estimate(
     its branch (ψ or ψ + 180° for a level zenith-viewing sensor): iframe is run from either and the branch whose AoP
     residuals are lower by more than the noise is taken (the summary says so, ``pol_branch_rms``); gd/cg/qn/mekf
     start on it, from the start that holds it (:mod:`optinav.attitude.branch`). Branches alike (a level body) are
-    refused, naming ``q0``. Bad input raises :class:`OptinavError`.
+    refused, naming ``q0``. From ``q0`` its branch is taken, refused where the AoP contradicts it (the other
+    branch, or a turn of its heading beyond 45°). Bad input raises :class:`OptinavError`.
 
     Parameters
     ----------
@@ -790,15 +791,18 @@ def estimate(
     # polarization alone without q0: the heading's branch is the recording's to decide, from iframe's runs from
     # either (optinav.attitude.branch); a magnetometer's field picks it as the estimate starts
     decide = pol is not None and q0 is None and mag is None
+    # from q0 its branch is taken, and the AoP must not contradict it (a q0 180° off ran 179° off, an AoP of the
+    # other sign 69-108°, its reference axis 90° off 90°, all with exit 0)
+    confirm = pol is not None and q0 is not None and mag is None and not gaps.size
     branch_opts = opts if method == "iframe" else _options("iframe", {})
     ahead = None
-    if checks and not gaps.size and (decide or method == "iframe" and mag is None):
+    if checks and not gaps.size and (decide or confirm or method == "iframe" and mag is None):
         # the checks judge these inputs and change none of them: the estimate runs beside them (its kernel releases
         # the GIL; 1 M samples of BROAD 02: 0.42 s, the checks 0.18 s), kept only where they pass
         ahead = _beside(
             lambda: (
-                _branch_runs(gyr, acc, dts, pol, frame, branch_opts)
-                if decide
+                _branch_runs(gyr, acc, dts, pol, frame, branch_opts, _as_q0(q0) if confirm else None)
+                if decide or confirm
                 else run_iframe(
                     gyr, acc, dts, pol=pol, frame=frame, q0=None if q0 is None else _as_q0(q0), offline=offline, **opts
                 )
@@ -971,6 +975,10 @@ def estimate(
         k, branch_rms = _branch(runs, pol, frame)
         other, ref = BRANCHES[k], None if branch_rms is None else runs[k].q_b_n
         r = runs[k] if method == "iframe" and not offline and mag is None else None  # the estimate itself
+    elif confirm:
+        runs = ahead() if ahead is not None else _branch_runs(gyr, acc, dts, pol, frame, branch_opts, _as_q0(q0))
+        _branch(runs, pol, frame, _as_q0(q0))
+        r = runs[0] if method == "iframe" and not offline else None
     elif ahead is not None:
         r = ahead()
     if method == "iframe":
@@ -1060,18 +1068,25 @@ def estimate(
     )
 
 
-def _branch_runs(gyr, acc, dts, pol, frame: str, opts: dict) -> list[FilterRun]:
-    """iframe online from either heading branch (:data:`~optinav.attitude.branch.BRANCHES`), with ``opts``."""
+def _branch_runs(gyr, acc, dts, pol, frame: str, opts: dict, q0=None) -> list[FilterRun]:
+    """iframe online from either heading branch (:data:`~optinav.attitude.branch.BRANCHES`), with ``opts``; from
+    ``q0`` (4,) and from q0 turned 180° about up where given."""
+    if q0 is not None:
+        turned = quat_multiply(quat_from_rotvec(np.pi * up_vector(frame)), q0)
+        return [run_iframe(gyr, acc, dts, pol=pol, frame=frame, q0=q, **opts) for q in (q0, turned)]
     return [run_iframe(gyr, acc, dts, pol=pol, frame=frame, other_root=b, **opts) for b in BRANCHES]
 
 
-def _branch(runs: list[FilterRun], pol: PolarizationMeasurement, frame: str) -> tuple[int, np.ndarray | None]:
+def _branch(runs: list[FilterRun], pol: PolarizationMeasurement, frame: str, q0=None) -> tuple[int, np.ndarray | None]:
     """The branch of :func:`_branch_runs` the recording's AoP takes and the residual RMS (2,) rad of it and of the
-    other (:meth:`~optinav.attitude.branch.BranchResiduals.verdict`; refused when alike)."""
+    other (:meth:`~optinav.attitude.branch.BranchResiduals.verdict`; refused when alike). From ``q0`` its branch,
+    refused where the AoP contradicts it."""
     use, sn, cbm, aop, min_d2, _ = pol_inputs(pol, runs[0].q_b_n.shape[0], frame, "the IMU")
     res = BranchResiduals(cbm, min_d2, up_vector(frame))
     res.add(runs[0].q_b_n, runs[1].q_b_n, use, sn, aop)
-    return res.verdict()
+    if q0 is not None:
+        res.add_turn(runs[0].q_b_n, runs[0].pol_used, q0)
+    return res.verdict(fixed=q0 is not None)
 
 
 def _after(early: AttitudeEstimate | None, est: AttitudeEstimate) -> AttitudeEstimate:

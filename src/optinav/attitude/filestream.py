@@ -813,18 +813,27 @@ class _BranchSegment:
     (:data:`~optinav.attitude.branch.BRANCHES`; :func:`~optinav.attitude.iframe.run_iframe`'s kernel with the
     states carried block by block): their AoP residuals, and the segment's first usable polarization row and first
     row with a field (relative to the segment). ``method``: (name, filter options) of gd/cg/qn/mekf, run from
-    either start too (:class:`~optinav.attitude.branch.HeldBranch` over the segment's ``n`` rows), or None."""
+    either start too (:class:`~optinav.attitude.branch.HeldBranch` over the segment's ``n`` rows), or None. From
+    ``q0`` (4,) the runs start from it and from it turned 180° about up: the AoP must not contradict its branch."""
 
-    def __init__(self, frame: str, opts: dict, method=None, n: int = 0):
+    def __init__(self, frame: str, opts: dict, method=None, n: int = 0, q0=None):
         from optinav.attitude import iframe as _if
         from optinav.attitude.branch import BRANCHES, HeldBranch
         from optinav.attitude.estimators import make_filter
+        from optinav.attitude.measurement import up_vector
+        from optinav.core.rotations import quat_from_rotvec, quat_multiply
 
         self.frame, self.par = frame, _if._params(frame, opts)
-        self.states = [_if._new_state(opts, None, other_root=b) for b in BRANCHES]
+        if q0 is None:
+            self.states = [_if._new_state(opts, None, other_root=b) for b in BRANCHES]
+        else:
+            turned = quat_multiply(quat_from_rotvec(np.pi * up_vector(frame)), q0)
+            self.states = [_if._new_state(opts, q) for q in (q0, turned)]
+        self.last = q0  # the run from q0: the attitude before the next block's first row
         self.res, self.n, self.pol_row, self.mag_row = None, 0, None, None
         self.method = None if method is None else method[0]
-        self.tries = [] if method is None else [make_filter(method[0], **method[1]) for _ in BRANCHES]
+        # from q0 nothing is decided, so nothing for gd/cg/qn/mekf to hold
+        self.tries = [] if method is None or q0 is not None else [make_filter(method[0], **method[1]) for _ in BRANCHES]
         for f, b in zip(self.tries, BRANCHES):
             f._decided(b)
             f._gap_check = False  # the file's gaps are cut by the caller
@@ -837,11 +846,15 @@ class _BranchSegment:
         from optinav.attitude.branch import BranchResiduals
         from optinav.attitude.measurement import up_vector
 
-        runs = [_if._run_pol(st, self.par, gyr, acc, np.zeros((0, 3)), dts, pin).q_b_n for st in self.states]
+        out = [_if._run_pol(st, self.par, gyr, acc, np.zeros((0, 3)), dts, pin) for st in self.states]
+        runs = [r.q_b_n for r in out]
         use, sn, cbm, aop, min_d2 = pin[:5]
         if self.res is None:
             self.res = BranchResiduals(cbm, min_d2, up_vector(self.frame))
         self.res.add(runs[0], runs[1], use, sn, aop)
+        if self.last is not None and len(dts):
+            self.res.add_turn(runs[0], out[0].pol_used, self.last)
+            self.last = runs[0][-1]
         if self.tries:
             for j, f in enumerate(self.tries):
                 self.held.add(j, f.update_batch(gyr, acc, dts, pol=pm).q_b_n, runs)
@@ -853,11 +866,16 @@ class _BranchSegment:
 
     def branch(self, fixed: bool, field: bool):
         """The :class:`~optinav.attitude.branch.Branch` its AoP takes (refused when alike, or when gd/cg/qn/mekf hold
-        it from neither start), or None where ``fixed`` (q0), where no polarization sample was usable, or where a
-        field (``field``: the magnetometer's, not fitted online) came with or before the first."""
+        it from neither start), or None where ``fixed`` (q0: refused where the AoP contradicts it, when the runs
+        started from it), where no polarization sample was usable, or where a field (``field``: the magnetometer's,
+        not fitted online) came with or before the first."""
         from optinav.attitude.branch import BRANCHES, Branch
 
-        if fixed or self.pol_row is None or field and self.mag_row is not None and self.mag_row <= self.pol_row:
+        if self.pol_row is None or field and self.mag_row is not None and self.mag_row <= self.pol_row:
+            return None
+        if fixed:
+            if self.last is not None:
+                self.res.verdict(fixed=True)
             return None
         k, rms = self.res.verdict()
         if self.tries and rms is not None:
@@ -873,6 +891,7 @@ def _branch_pass(src, checks, frame: str, q0, pol, t_first: float, opts: dict, o
     :class:`~optinav.attitude.branch.Branch` (None where nothing was decided) and the residual RMS (2,) rad the
     summary names (:func:`~optinav.attitude.branch.weakest`)."""
     from optinav.attitude.branch import weakest
+    from optinav.attitude.estimators import _as_q0
     from optinav.attitude.measurement import pol_inputs
     from optinav.core.progress import progress_blocks
 
@@ -884,7 +903,8 @@ def _branch_pass(src, checks, frame: str, q0, pol, t_first: float, opts: dict, o
         cuts, dts = _cut(checks, row0, dts)
         for k, (a, b) in enumerate(zip(np.r_[0, cuts], np.r_[cuts, len(t)])):
             if k or not segs:
-                segs.append(_BranchSegment(frame, opts, method, int(rows[len(segs)])))
+                start = None if segs or q0 is None else _as_q0(q0)  # the first segment's runs: from q0 when given
+                segs.append(_BranchSegment(frame, opts, method, int(rows[len(segs)]), start))
             if b > a:
                 p = pm.select(slice(a, b))
                 pin = pol_inputs(p, b - a, frame, "the IMU")
@@ -905,7 +925,7 @@ def _stream_offline(
     ``t_first`` s); each segment (between time gaps) then runs
     :func:`_offline_segment` over it, and a last forward pass writes the CSV (none when ``out`` is None). The
     output is the in-memory ``estimate(..., offline=True)``'s byte for byte."""
-    from optinav.attitude.estimators import summary_line
+    from optinav.attitude.estimators import _as_q0, summary_line
     from optinav.attitude._iframe import POL_USED
     from optinav.attitude.iframe import pol_skipped
     from optinav.attitude.branch import weakest
@@ -973,8 +993,10 @@ def _stream_offline(
         lat, rms = 0.0, []
         for k, (a, b) in enumerate(bounds):
             branch = None
-            if branch_opts is not None and pol_const is not None and not (k == 0 and q0 is not None):
-                seg = _BranchSegment(frame, branch_opts)  # the segment's heading branch, from the inputs kept
+            if branch_opts is not None and pol_const is not None:
+                # the segment's heading branch, from the inputs kept (from q0: that the AoP does not contradict it)
+                start = _as_q0(q0) if k == 0 and q0 is not None else None
+                seg = _BranchSegment(frame, branch_opts, q0=start)
                 for s in range(int(a), int(b), blk):
                     r = store.read(s, min(s + blk, int(b)))
                     mag = store.col(r, "mag") if src.mag else None
@@ -985,7 +1007,7 @@ def _stream_offline(
                         _store_pin(store, r, pol_const),
                         mag=mag,
                     )
-                branch = seg.branch(False, bool(src.mag))
+                branch = seg.branch(start is not None, bool(src.mag))
                 rms.append(None if branch is None else branch.rms)
             other = branch is not None and branch.other_root
             lat = _offline_segment(store, int(a), int(b), opts, frame, q0 if k == 0 else None, blk, pol_const, other)
@@ -1472,6 +1494,8 @@ def stream_attitude(
     late_field = "mag" in first and first["mag"] > first.get("aop", np.inf)
     fixed = q0 is not None and not gaps.size or src.mag and not (online_fit or gaps.size or late_field)
     decide = pol is not None and "aop" in first and not fixed
+    # from q0 without a field its branch is taken: the same runs, from it, refuse an AoP that contradicts it
+    decide = decide or pol is not None and "aop" in first and q0 is not None and not src.mag
     # the estimators (numba kernels) load only from here, so that a bad file is reported within a second of start
     if o.offline:
         step("estimate (iframe offline), write")
