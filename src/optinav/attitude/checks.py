@@ -1386,13 +1386,21 @@ DEAD_HEAD_ROWS = 4096
 
 def noisy_axes(x: np.ndarray) -> np.ndarray:
     """Which axes of ``x`` (m, 3; a log's first rows) carry a sensor's noise: their second differences as large as
-    half their first ones (white noise: √3×; a noise-free simulated motion's are far smaller)."""
+    half their first ones, or their third as large as :data:`NOISE_D3` × their second (white noise: √3× and 1.83×;
+    a noise-free simulated motion's are far smaller, 0.02-0.8×). In motion the first differences are the motion's
+    (BROAD's gyros from 5 s into it: 0.32-0.64×), the third still the noise's (1.44-1.86×): a log that starts in
+    motion was judged noise-free, and its dead or frozen axes were not judged."""
     if x.shape[0] < 10:
         return np.zeros(x.shape[1], bool)
     d1 = np.abs(np.diff(x, axis=0))
     d2 = np.abs(np.diff(x, 2, axis=0))
-    m1 = np.nanmean(d1, axis=0)
-    return (m1 > 0) & (np.nanmean(d2, axis=0) > 0.5 * m1)
+    d3 = np.abs(np.diff(x, 3, axis=0))
+    m1, m2 = np.nanmean(d1, axis=0), np.nanmean(d2, axis=0)
+    return (m1 > 0) & ((m2 > 0.5 * m1) | (np.nanmean(d3, axis=0) > NOISE_D3 * m2))
+
+
+#: the ratio of mean |third| to mean |second| differences from which an axis carries noise (:func:`noisy_axes`)
+NOISE_D3 = 1.2
 
 
 def check_dead_axes(extremes: np.ndarray, n: int, noisy) -> None:
@@ -1529,7 +1537,8 @@ class Wraps:
 #: (the gyro's turn at STUCK_TURN rad/s, the accelerometer's other axes moving over STUCK_FORCE m/s²): an axis that
 #: froze. BROAD 02 with its gyro's x frozen for 10 s in motion ran at 27° with exit 0, its accelerometer's z at
 #: 23°; the nine hold an axis at most 10 samples (35 ms). A quiet axis of a coarsely quantized sensor repeats at
-#: rest, and in a turn about another axis, as often as its share says: not judged; nor a gyro axis at exactly 0
+#: rest, and in a turn about another axis, as often as its share says: not judged (a gyro axis at exactly 0 alike,
+#: a driver's dead band)
 STUCK_S, STUCK_CHANCE, STUCK_TURN, STUCK_FORCE = 0.5, 1e-6, 0.1, 1.0
 _STUCK_MIN = 16  # rows from which a run is looked at
 
@@ -1604,8 +1613,9 @@ class StuckAxes:
                     m = float(max(hs[0] - ls[0], hs[1] - ls[1]))
                 start = self.open[t, k, 0] if carried and r == 0 else self.n + first[r]
                 value = x[max(first[r], 0), k]
-                # (a gyro axis at exactly 0 may be a driver's dead band during a turn about another axis)
-                if m >= (STUCK_TURN, STUCK_FORCE)[t] and rows[r] > self.best[t, k, 0] and (t or value != 0.0):
+                # a gyro axis at exactly 0 too: a driver's dead band zeroes it in turns about the other axes often,
+                # and the chance test of check() lets that pass (a frozen 0 in motion ran 68° off with exit 0)
+                if m >= (STUCK_TURN, STUCK_FORCE)[t] and rows[r] > self.best[t, k, 0]:
                     self.best[t, k] = (rows[r], start, value)
                     self.motion[t, k] = m
         # the run that reaches the block's last row stays open for the next block
