@@ -764,6 +764,33 @@ def test_export_converts_imucals_calibration_to_kalibr(tmp_path, capsys):
     assert "is the input" in capsys.readouterr().err
 
 
+@pytest.mark.skipif(not (DATA / "legacy_calibration_pre_2.0.json").is_file(), reason="imucal data absent")
+def test_export_to_kalibr_of_a_calibration_that_does_not_say_its_raw_unit(tmp_path, capsys):
+    """imucal's calibration before 2.0 (of counts: its K_a is the 2.x reference's × 2048/9.81) and imu_tk's files
+    record no raw unit: exported to Kalibr as if in m/s² and rad/s, M came out 208 and 965 on its diagonal (Kalibr
+    then reads g as 0.047 m/s²) with exit 0. Refused naming --acc-unit; stated counts with the driver's sensitivity,
+    M ≈ 1 (the 2.x reference's own K in m/s² and deg/s, from the legacy's counts: within 0.1 %)."""
+    legacy, ref = (
+        DATA / "legacy_calibration_pre_2.0.json",
+        DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json",
+    )
+    out = tmp_path / "k.yaml"
+    assert main(["export", str(legacy), "--to", "kalibr", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "does not say the raw unit" in err and "--acc-unit" in err and not out.exists(), err
+    units = ["--acc-unit", "counts", "--gyro-unit", "counts", "--acc-lsb", "2048", "--gyro-lsb", "16.384"]
+    assert main(["--quiet", "export", str(legacy), "--to", "kalibr", *units, "--out", str(out)]) == 0
+    got = read_kalibr_imu_yaml(out)
+    assert main(["--quiet", "export", str(ref), "--to", "kalibr", "--out", str(tmp_path / "r.yaml")]) == 0
+    want = read_kalibr_imu_yaml(tmp_path / "r.yaml")
+    for s in ("accelerometers", "gyroscopes"):
+        # the legacy's counts at the nominal 2048 LSB/g (g = 9.81 there) and 16.384 LSB/(°/s)
+        f = 9.81 / 9.80665 if s == "accelerometers" else 1.0
+        np.testing.assert_allclose(np.array(got[s]["M"]) * f, np.array(want[s]["M"]), rtol=2e-3, atol=2e-3)
+    assert main(["export", str(ref), "--to", "kalibr", "--acc-unit", "counts", "--out", str(out)]) == 2
+    assert "made from m/s^2 (the file says so)" in capsys.readouterr().err
+
+
 def test_apply_refuses_rad_s_under_counts_when_gravity_does_not_turn(tmp_path, capsys):
     """The gyro check judges the unit by how gravity turns in the body: a log that turns only about the vertical
     (or rests) in rad/s under a calibration of counts, no unit stated, came out ~940x too small with exit 0.

@@ -57,6 +57,17 @@ def register(sub) -> None:
         "noise density (refused without this)",
     )
     p.add_argument(
+        "--acc-unit",
+        choices=["counts", "g", "mg", "m/s^2"],
+        help="kalibr: the raw unit the accelerometer calibration was made from, where the file does not say it "
+        "(imu_tk's files, imucal's before 2.0)",
+    )
+    p.add_argument(
+        "--gyro-unit",
+        choices=["counts", "deg/s", "mdps", "rad/s"],
+        help="kalibr: the raw unit the gyroscope calibration was made from, where the file does not say it",
+    )
+    p.add_argument(
         "--acc-lsb",
         type=POSITIVE,
         metavar="LSB_PER_G",
@@ -80,6 +91,8 @@ def run(args) -> int:
             ("--rate", args.rate_hz),
             ("--acc-lsb", args.acc_lsb),
             ("--gyro-lsb", args.gyro_lsb),
+            ("--acc-unit", args.acc_unit),
+            ("--gyro-unit", args.gyro_unit),
             ("--allow-rw-bound", args.allow_rw_bound or None),
         ):
             if value is not None:
@@ -95,7 +108,7 @@ def run(args) -> int:
         raise OptinavError("--gyro-out and --out name the same file", "give the gyroscope file another name")
     from optinav.multipos.exchange import export_calibration, load_export_source
 
-    res = load_export_source(args.result, args.gyro_cal, args.to)
+    res = load_export_source(args.result, args.gyro_cal, args.to, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit)
     noise = None
     if args.noise:
         from optinav.core.allan import AllanAnalysis

@@ -257,14 +257,24 @@ def imu_tk_triangular(params: dict) -> bool:
     )
 
 
-def load_export_source(path, gyro_path, fmt: str):
+def load_export_source(path, gyro_path, fmt: str, acc_unit: str | None = None, gyro_unit: str | None = None):
     """:func:`load_calibration` for ``optinav export --to fmt``: an imu_tk file given alone is read as the
     accelerometer's, which imucal and Kalibr cannot take alone; they were told to 'calibrate with gyroscope data',
     for imu_tk's gyroscope file too (given as RESULT) and for its accelerometer file, which only lacks --gyro-cal.
-    (--to imu_tk writes a file given alone back as it is.)"""
+    (--to imu_tk writes a file given alone back as it is.) ``acc_unit``/``gyro_unit``: the raw units the
+    calibration was made from where the file does not say them (imu_tk, imucal before 2.0); refused where it does
+    and differs."""
     from optinav.multipos.convert import read_imu_tk
 
     res = load_calibration(path, gyro_path)
+    for sensor, flag, unit in (("accelerometer", "--acc-unit", acc_unit), ("gyroscope", "--gyro-unit", gyro_unit)):
+        known = res.units.get(f"{sensor}_raw")
+        if unit is not None and known is not None and unit != known:
+            raise OptinavError(
+                f"{flag} {unit} for the {sensor} calibration made from {known} (the file says so)", f"drop {flag}"
+            )
+        if unit is not None:
+            res.units[f"{sensor}_raw"] = unit
     if res.method != "imu_tk" or gyro_path is not None or fmt not in ("imucal", "kalibr"):
         return res
     if not imu_tk_triangular(read_imu_tk(path)):

@@ -132,6 +132,11 @@ def kalibr_intrinsics(cal, counts_per_si: dict | None = None) -> dict:
 def _factor(unit, factor, counts_per_si=None, sensor: str = "", flag: str = "") -> float:
     """SI units per raw unit: a physical unit's factor; raw counts 1 / the driver's counts per SI unit (refused
     without it when ``flag`` names the option; 1 when reading back a file written before it was recorded)."""
+    if unit is None and flag:
+        # imu_tk's files and imucal's before 2.0 do not say what K maps from: taken as SI, a counts calibration's M
+        # came out 208 and 965 on its diagonal (Kalibr then reads g as 0.047 m/s²) with exit 0
+        unit_flag = "--acc-unit" if sensor == "accelerometer" else "--gyro-unit"
+        return _unstated(sensor, unit_flag)
     if unit is None:
         return 1.0
     if unit != "counts":
@@ -148,6 +153,14 @@ def _factor(unit, factor, counts_per_si=None, sensor: str = "", flag: str = "") 
             "export --to imu_tk or imucal, which take raw counts",
         )
     return 1.0
+
+
+def _unstated(sensor: str, flag: str):
+    raise OptinavError(
+        f"the {sensor} calibration does not say the raw unit it was made from (imu_tk's files and imucal's before "
+        "2.0 do not), and Kalibr's M is relative to SI units",
+        f"state it with {flag} (counts: with {'--acc-lsb' if sensor == 'accelerometer' else '--gyro-lsb'} too)",
+    )
 
 
 #: 1/s: the largest random-walk bound Kalibr gets per unit of its white noise (K_bound / N). A typical MEMS has
