@@ -208,6 +208,35 @@ def test_check_aop_both_ways():
     check_aop(np.full(200, 1.2), "deg")  # a still sensor's AoP of 1.2° spans nothing: not judged
     with pytest.raises(OptinavError, match="degrees declared rad"):
         check_aop(np.degrees(x) * 10, "rad")
+    with pytest.raises(OptinavError, match="reaches 9999, beyond ±360°: a fill value"):
+        check_aop(np.r_[np.degrees(x), 9999.0], "deg")
+
+
+def test_polarization_in_the_wrong_unit_is_refused_in_python_and_streamed(flight, tmp_path, capsys):
+    """An AoP in degrees given to PolarizationMeasurement (a streaming filter's pol=) ran 75-113° off with exit 0;
+    a DoP in percent skipped no sample for a low DoP; a fill value of 9999° in a degree column every 7th sample
+    was taken as an angle (2-5° off). Refused naming the unit, the fill value."""
+    from optinav.attitude import PolarizationMeasurement
+    from optinav.errors import OptinavError
+
+    d, folder, path, site, times = flight
+    with pytest.raises(OptinavError, match=r"aop reaches 9\d(\.\d*)?, beyond 2π: it is in radians"):
+        PolarizationMeasurement(np.degrees(d.aop), d.sun_n, frame="ned")
+    with pytest.raises(OptinavError, match="degree of polarization reaches .*it looks like percent"):
+        PolarizationMeasurement(d.aop, d.sun_n, dop=100 * d.dop, frame="ned")
+    data = np.genfromtxt(path, delimiter=",", names=True)
+    for name, aop, dop, words in (
+        ("fill", np.where(np.arange(data.size) % 7, data["aop_deg"], 9999.0), data["dop"], "a fill value"),
+        ("pct", data["aop_deg"], 100 * data["dop"], "it looks like percent"),
+    ):
+        f = tmp_path / f"{name}.csv"
+        cols = [data[c] for c in ("t", "ax", "ay", "az", "gx", "gy", "gz")] + [aop, dop]
+        np.savetxt(f, np.column_stack(cols), delimiter=",", header="t,ax,ay,az,gx,gy,gz,aop_deg,dop", comments="")
+        argv = ["attitude", str(f), "--gyro-unit", "deg/s", "--pol-columns", "aop_deg,dop", "--aop-unit", "deg"]
+        argv += ["--lat", str(np.degrees(site["lat"])), "--lon", str(np.degrees(site["lon"]))]
+        assert main([*argv, "--start-time", times["dynamic"], "--out", str(tmp_path / "a.csv")]) == 2
+        err = capsys.readouterr().err
+        assert words in err and err.count("\n") == 1, err
 
 
 def test_magnetometer_columns_with_units_in_brackets(tmp_path, capsys):

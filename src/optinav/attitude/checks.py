@@ -2163,6 +2163,12 @@ def aop_range(lo: float, hi: float, n: int, unit: str = "rad") -> None:
     """:func:`check_aop` from the column's smallest and largest finite value and their count (a log read block
     by block gathers them)."""
     if unit == "deg":
+        if max(abs(lo), abs(hi)) > 360.0:
+            raise OptinavError(
+                f"the angle of polarization in degrees reaches {max(abs(lo), abs(hi)):.6g}, beyond ±360°: a fill "
+                "value for missing samples?",
+                "write missing samples as NaN (an empty cell)",
+            )
         if n >= AOP_MIN_ROWS and max(abs(lo), abs(hi)) <= 1.01 * np.pi / 2 and hi - lo >= AOP_RAD_SPAN:
             raise OptinavError(
                 f"the angle of polarization in degrees stays within {lo:.3g}…{hi:.3g}, inside ±π/2, over {n} "

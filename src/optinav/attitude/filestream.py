@@ -1442,6 +1442,11 @@ def stream_attitude(
                 checks.add_mag(extra["mag"], acc, gyr)
             elif "witness" in extra:
                 checks.add_witness(extra["witness"], gyr)
+        if pol is not None:
+            a = extra["aop"][np.isfinite(extra["aop"])]
+            if a.size:
+                aop_lo, aop_hi, aop_n = min(aop_lo, float(a.min())), max(aop_hi, float(a.max())), aop_n + a.size
+                aop_range(aop_lo, aop_hi, 0, pol.aop_unit)  # a value no angle has, before the block is taken as one
         if pol is not None and not pol_usable:
             # the sun along the log costs ~3.6 µs a sample and the estimate's pass computes it again: once a sample
             # is usable nothing more is needed, and every 64th row finds one in a block that has some
@@ -1453,9 +1458,6 @@ def stream_attitude(
                 pol_usable = bool(use.any())
                 pol_skipped = {k: pol_skipped.get(k, 0) + v for k, v in skipped.items()}
         if pol is not None:
-            a = extra["aop"][np.isfinite(extra["aop"])]
-            if a.size:
-                aop_lo, aop_hi, aop_n = min(aop_lo, float(a.min())), max(aop_hi, float(a.max())), aop_n + a.size
             for key, rows in (("aop", np.isfinite(extra["aop"])), ("mag", np.isfinite(extra.get("mag", [])))):
                 if key not in first and rows.size and rows.reshape(len(t), -1).all(axis=1).any():
                     first[key] = checks.n - len(t) + int(np.argmax(rows.reshape(len(t), -1).all(axis=1)))

@@ -138,6 +138,12 @@ class PolarizationMeasurement:
             raise OptinavError(f"aop has shape {aop.shape}, expected (N,)", "pass one angle (rad) per IMU sample")
         if np.any(np.isinf(aop)):
             raise OptinavError("aop contains infinite values", "use NaN for missing polarization samples")
+        big = float(np.nanmax(np.abs(aop))) if np.isfinite(aop).any() else 0.0
+        if big > 2 * np.pi:  # streamed in degrees, the heading ran 75-113° off with exit 0
+            raise OptinavError(
+                f"aop reaches {big:.4g}, beyond 2π: it is in radians (an angle of polarization in degrees?)",
+                "pass radians (np.radians(aop_deg)); NaN for missing samples",
+            )
         self.aop = aop
         n = aop.size
         s = as_float_array(self.sun_n, "sun_n", last_dims=(3,))
@@ -159,6 +165,14 @@ class PolarizationMeasurement:
             d = as_float_array(self.dop, "dop", finite=False)
             if d.shape != (n,):
                 raise OptinavError(f"dop has shape {d.shape}, expected ({n},)", "pass one degree per sample")
+            lo, hi = (float(np.nanmin(d)), float(np.nanmax(d))) if np.isfinite(d).any() else (0.0, 0.0)
+            if lo < 0.0 or hi > 1.0 + 1e-9:  # in percent, no sample was ever skipped for a low DoP
+                raise OptinavError(
+                    f"the degree of polarization reaches {hi if hi > 1 else lo:.4g}, outside [0, 1]"
+                    + (": it looks like percent" if hi > 1 else ""),
+                    "pass it as a fraction (percent / 100), or leave it out (--pol-columns AOP alone): then no sample "
+                    "is skipped for a low DoP",
+                )
             self.dop = d
         self.C_b_m = as_c_b_m(self.C_b_m, self.frame)
         if self.valid is not None:
