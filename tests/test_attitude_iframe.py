@@ -663,16 +663,19 @@ def test_the_tilt_does_not_depend_on_the_heading():
 
 def test_every_streaming_filter_takes_update_gyr_acc_dt():
     """make_filter(m).update(gyr, acc, dt) is the published filters' form; iframe's third argument is mag, and a
-    step there raised "object of type 'float' has no len()". A number in its place is the step now."""
+    step there raised "object of type 'float' has no len()". A number in its place is the step now, a 0-d array too
+    (it raised "len() of unsized object")."""
     from optinav.attitude import METHODS, make_filter
 
     w, acc, _ = motion(300, seed=3)
     for m in METHODS:
-        f, ref = make_filter(m), make_filter(m)
+        f, ref, zero_d = make_filter(m), make_filter(m), make_filter(m)
         for k in range(300):
             f.update(w[k], acc[k], DT)
             ref.update(w[k], acc[k], dt=DT)
+            zero_d.update(w[k], acc[k], np.asarray(DT))
         np.testing.assert_array_equal(f.q_b_n, ref.q_b_n)
+        np.testing.assert_array_equal(zero_d.q_b_n, ref.q_b_n)
     with pytest.raises(OptinavError, match="rate_hz = 1 Hz is no IMU sample rate"):
         AttitudeFilter(1.0)
     for bad in (100.0, 10.0):  # a rate, or a step in ms, passed as dt ran with exit 0 or was taken for deg/s

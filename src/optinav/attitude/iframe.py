@@ -815,7 +815,7 @@ class AttitudeFilter(StreamGaps):
             Skylight polarization: (aop [rad], sun_n (3,) [-]) or (aop, sun_n, dop [-]), the sensor of the filter's
             ``C_b_m`` and thresholds.
         """
-        if mag is not None and not hasattr(mag, "__len__"):
+        if mag is not None and (not hasattr(mag, "__len__") or getattr(mag, "ndim", 1) == 0):  # a 0-d array too
             mag, dt = None, mag
         if pol_sample is not None:
             from optinav.attitude.estimators import one_pol_sample
