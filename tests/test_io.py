@@ -92,8 +92,9 @@ def test_round_trip_keeps_nan_rows_and_units_on_output(tmp_path):
     assert np.isnan(back.acc[3, 1]) and np.isinf(back.gyr[10, 2])
     text = (tmp_path / "x.csv").read_text().splitlines()
     assert text[1] == "# units: t=s acc=g gyro=deg/s" and text[2] == "t,sample,ax,ay,az,gx,gy,gz"
-    with pytest.raises(OptinavError, match="declares g but acc_unit='m/s\\^2'"):
-        read_imu(tmp_path / "x.csv", acc_unit="m/s^2")
+    over = read_imu(tmp_path / "x.csv", acc_unit="m/s^2")  # the option overrides the file's line, with a note
+    np.testing.assert_allclose(over.acc, log.acc / G_STANDARD, rtol=1e-15)
+    assert any("declare g; acc_unit=m/s^2 overrides that" in n for n in over.notes), over.notes
 
 
 def test_write_refuses_bad_requests(tmp_path):
@@ -850,6 +851,27 @@ def test_a_unit_implied_by_a_name_yields_to_the_option(tmp_path):
     path.write_text("header.stamp [ns],ax,ay,az,gx,gy,gz\n" + rows)
     with pytest.raises(OptinavError, match="declares ns but time_unit='s' was passed"):
         read_imu(path, time_unit="s")
+
+
+def test_a_stated_sensor_unit_overrides_a_header_that_declares_another(tmp_path):
+    """A header in the wrong unit (``acc_x [m/s^2]`` over values in g): calibrate named --acc-unit g, which was then
+    refused as contradicting the file ("drop acc_unit or correct the file"), and no flag could read it. The stated
+    unit is taken, with a note naming the override; read whole and in blocks alike."""
+    from optinav.io import iter_imu
+
+    rng = np.random.default_rng(0)
+    acc_g, gyr = rng.normal(0, 1, (60, 3)), rng.normal(0, 10, (60, 3))
+    rows = "".join(f"{i * 0.01!r},{','.join(map(repr, [*acc_g[i].tolist(), *gyr[i].tolist()]))}\n" for i in range(60))
+    head = "t,acc_x [m/s^2],acc_y [m/s^2],acc_z [m/s^2],gyr_x [rad/s],gyr_y [rad/s],gyr_z [rad/s]\n"
+    path = _write(tmp_path / "w.csv", head + rows)
+    log = read_imu(path, acc_unit="g", gyro_unit="deg/s")
+    np.testing.assert_allclose(log.acc, acc_g * G_STANDARD, rtol=1e-12)
+    np.testing.assert_allclose(log.gyr, np.radians(gyr), rtol=1e-12)
+    said = " ".join(log.notes)
+    assert "declare m/s^2; acc_unit=g overrides that" in said and "declare rad/s; gyro_unit=deg/s overrides" in said
+    blocks = list(iter_imu(path, acc_unit="g", gyro_unit="deg/s", chunk_rows=25))
+    np.testing.assert_array_equal(np.concatenate([b.acc for b in blocks]), log.acc)
+    np.testing.assert_array_equal(read_imu(path).acc, acc_g)  # as declared without the option
 
 
 @pytest.mark.parametrize(

@@ -465,10 +465,11 @@ def _canonical(kind: str, unit: str, option: str) -> str:
     raise OptinavError(f"unknown {option} {unit!r}", f"use one of: {', '.join(_CANONICAL[kind])}")
 
 
-def _resolve_unit(kind: str, given: str | None, part: _Part, option: str, default: str) -> str:
+def _resolve_unit(kind: str, given: str | None, part: _Part, option: str, default: str, notes=None) -> str:
     """The unit of one quantity: the option, else what the file declares, else what a column's name implies (the
     option overrides that: ``header.stamp`` in s was refused against --time-unit s), else ``default``; conflicts
-    are errors."""
+    are errors, but for an option that contradicts the file's declaration where ``notes`` (a list) takes a note:
+    a header in the wrong unit was refused with the option the unit checks named, and could not be read."""
     declared = {}
     stated = part.declared[kind] if given is not None or part.declared[kind] else part.implied[kind]
     for src, unit in stated.items():
@@ -482,6 +483,11 @@ def _resolve_unit(kind: str, given: str | None, part: _Part, option: str, defaul
                     f"convert the file, or pass {option}=... to state the unit",
                 ) from None
     if given is not None:
+        off = {src: unit for src, unit in declared.items() if unit != given}
+        if off and notes is not None:
+            units = "/".join(sorted(set(off.values())))
+            notes.append(f"{part.path.name}: {', '.join(off)} declare {units}; {option}={given} overrides that")
+            return given
         for src, unit in declared.items():
             if unit != given:
                 raise OptinavError(
@@ -2406,7 +2412,7 @@ def _log_of(
     acc = gyro = None
     acc_in = gyro_in = None
     if main.acc is not None:
-        acc_in = _resolve_unit("acc", acc_u, main, "acc_unit", acc_d)
+        acc_in = _resolve_unit("acc", acc_u, main, "acc_unit", acc_d, notes if row0 == 0 else [])
         acc = _scaled(main.acc, _si_factor(acc_in, acc_lsb, "g"))
         if acc_in == "counts" and acc_lsb and row0 == 0:
             notes.append(
@@ -2414,7 +2420,9 @@ def _log_of(
             )
     if main.gyro is not None:
         gpart = parts[-1]
-        gyro_in = _resolve_unit("gyro", gyro_u, gpart if len(parts) == 2 else main, "gyro_unit", gyro_d)
+        gyro_in = _resolve_unit(
+            "gyro", gyro_u, gpart if len(parts) == 2 else main, "gyro_unit", gyro_d, notes if row0 == 0 else []
+        )
         k = _si_factor(gyro_in, gyro_lsb, "deg/s")
         if gyro_in == "counts" and gyro_lsb and row0 == 0:
             notes.append(
