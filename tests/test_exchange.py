@@ -678,6 +678,12 @@ def test_imucal_au_is_counts(tmp_path, capsys):
 
     cal = DATA / "reference" / "example_cal_annotated_session.json"
     assert load_calibration(cal).units["gyroscope_raw"] == "counts"
+    # its gyro scales are negative (imucal's expected angle −360° for the session's turns of +360°), which apply
+    # refuses first: the same calibration with the turns' sense, for the unit check
+    info = json.loads(cal.read_text())
+    info["R_g"] = (-np.asarray(info["R_g"])).tolist()
+    cal = tmp_path / "cal.json"
+    cal.write_text(json.dumps(info))
     df = pd.read_csv(DATA / "annotated_session.csv")
     g = ["gyr_x", "gyr_y", "gyr_z"]
     df[g] = np.radians(df[g] / 16.4)  # the driver's deg/s at ±2000 °/s, then rad/s: stated in the header
@@ -687,6 +693,24 @@ def test_imucal_au_is_counts(tmp_path, capsys):
     assert main(["apply", str(cal), str(other), "--rate", "204.8", "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "gyroscope data are in rad/s but the calibration was made in counts" in err and not out.exists()
+
+
+@pytest.mark.skipif(
+    not (DATA / "reference" / "example_cal_annotated_session.json").is_file(), reason="imucal data absent"
+)
+def test_a_gyro_calibration_with_every_scale_negative_is_refused(tmp_path, capsys):
+    """imucal's calibration of its annotated session (its Ferraris default, an expected angle of −360° for turns
+    that integrate to +360°) has every gyro scale negative: applied to the session it read each turn as −360°
+    with exit 0, where optinav calibrate refuses the same assumption. apply refuses it naming the sense; the export
+    to Kalibr names the gyroscope."""
+    cal = DATA / "reference" / "example_cal_annotated_session.json"
+    out = tmp_path / "o.csv"
+    assert main(["apply", str(cal), str(DATA / "annotated_session.csv"), "--rate", "204.8", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "every gyro scale is negative" in err and "expected_angle=360" in err and not out.exists(), err
+    lsb = ["--acc-lsb", "2048", "--gyro-lsb", "16.4"]
+    assert main(["export", str(cal), "--to", "kalibr", *lsb, "--out", str(tmp_path / "k.yaml")]) == 2
+    assert "the gyroscope calibration matrix has det(K) <= 0" in capsys.readouterr().err
 
 
 def test_kalibr_sensitivity_for_a_calibration_of_physical_units_is_refused(tmp_path):

@@ -336,6 +336,15 @@ def check_plausible_K(sensor: str, entry: dict, raw_unit: str | None) -> None:
         cause = f"K has condition number {np.linalg.cond(K):.3g} (> {MAX_COND:g}: axes nearly parallel)"
     elif np.any(np.abs(b) > MAX_OFFSET):
         cause = f"the offsets b = {', '.join(f'{v:.4g}' for v in b)} {raw_unit or 'raw'} exceed {MAX_OFFSET:.4g}"
+    elif sensor == "gyroscope" and np.all(np.diag(K) < 0):
+        # calibrate refuses this (made with the turns' sense the other way: imucal's Ferraris default expected angle
+        # −360° for turns of +360°); imucal's own calibration of its annotated session applied read every rate with
+        # its sign flipped (−360° for the +360° turns) with exit 0
+        cause = (
+            "every gyro scale is negative (diag(K) = "
+            f"{', '.join(f'{v:.4g}' for v in np.diag(K))}): made with the rotations' sense opposite to the turns', it "
+            "reads every rate with its sign flipped"
+        )
     else:
         scale = np.abs(np.diag(K))
         if raw_unit in (None, "counts"):
@@ -351,7 +360,10 @@ def check_plausible_K(sensor: str, entry: dict, raw_unit: str | None) -> None:
     if cause:
         raise OptinavError(
             f"the {sensor} calibration is implausible: {cause}",
-            "re-run optinav calibrate on this unit (the result file may be damaged or of another unit)",
+            "re-run optinav calibrate on this unit (for Ferraris turns: with the rotation angle they make, imucal's "
+            "expected_angle=360 for turns of +360°)"
+            if "negative" in cause
+            else "re-run optinav calibrate on this unit (the result file may be damaged or of another unit)",
         )
 
 

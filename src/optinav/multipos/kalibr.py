@@ -43,13 +43,18 @@ NOISE_KEYS = (
 NOISE_MAX = 1.0
 
 
-def lq(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """K = L·Q with L lower triangular of positive diagonal and Q a rotation (det K > 0 needed)."""
+def lq(K: np.ndarray, sensor: str = "") -> tuple[np.ndarray, np.ndarray]:
+    """K = L·Q with L lower triangular of positive diagonal and Q a rotation (det K > 0 needed; ``sensor`` named in
+    the refusal)."""
     K = np.asarray(K, float)
     if not np.all(np.isfinite(K)) or np.linalg.det(K) <= 0:
+        negative = sensor == "gyroscope" and bool(np.all(np.diag(K) < 0))
         raise OptinavError(
-            "the calibration matrix has det(K) <= 0 (a mirrored or singular axis set)",
-            "Kalibr's model needs a right-handed sensor: check the axis signs of the calibration",
+            f"the {sensor + ' ' if sensor else ''}calibration matrix has det(K) <= 0 (a mirrored or singular axis set"
+            + ("; every scale negative: made with the rotations' sense opposite to the turns'" if negative else "")
+            + ")",
+            "Kalibr's model needs a right-handed sensor: check the axis signs of the calibration"
+            + (" (imucal's Ferraris: expected_angle 360 for turns of +360°)" if negative else ""),
         )
     Qt, Rt = np.linalg.qr(K.T)
     s = np.sign(np.diag(Rt))
@@ -104,8 +109,8 @@ def kalibr_intrinsics(cal, counts_per_si: dict | None = None) -> dict:
             )
     f_a = _factor(cal.units.get("accelerometer_raw"), factor, cps.get("accelerometer"), "accelerometer", "--acc-lsb")
     f_g = _factor(cal.units.get("gyroscope_raw"), factor, cps.get("gyroscope"), "gyroscope", "--gyro-lsb")
-    M_a, C_i_s = lq(f_a * cal.accelerometer["K"])
-    M_g, C_gyro_i = lq(f_g * cal.gyroscope["K"] @ C_i_s.T)
+    M_a, C_i_s = lq(f_a * cal.accelerometer["K"], "accelerometer")
+    M_g, C_gyro_i = lq(f_g * cal.gyroscope["K"] @ C_i_s.T, "gyroscope")
     G = cal.gyroscope.get("G")
     G = np.zeros((3, 3)) if G is None else np.asarray(G, float)
     A = f_g * G @ C_i_s.T @ C_gyro_i.T
