@@ -296,6 +296,41 @@ def _choose_model(
     return diag, list(MISALIGNMENT), note
 
 
+def _held_response(Jw, free, held, theta, held_misalignment: float) -> tuple[np.ndarray, np.ndarray]:
+    """(G, s_h) of parameters ``held`` at 0: G = −(J_fᵀWJ_f)⁻¹J_fᵀWJ_h the response of the ``free`` ones to a
+    held term (``Jw`` the whitened Jacobian over all 9), s_h their 1σ [raw/(m/s^2)] from ``held_misalignment``
+    [rad] (K_xy, K_xz ∝ K_xx; K_yz ∝ K_yy)."""
+    G = -np.linalg.lstsq(Jw[:, free], Jw[:, held], rcond=None)[0]
+    per_rad = {3: 0, 4: 0, 5: 1}
+    s_h = abs(float(held_misalignment)) * np.abs(theta[[per_rad[i] for i in held]])
+    return G, s_h
+
+
+def parameter_covariance(fit: AccelFit, stats: PoseStatistics, held_misalignment: float = HELD_MISALIGNMENT):
+    """Covariance (9 × 9) of θ [raw/(m/s^2) | raw]: the free terms' ``std`` with their Gauss–Newton correlations
+    and, for terms held at 0, their prior 1σ ``held_misalignment`` [rad] with the response of the free terms to
+    them (G, :func:`_held_response`), which ``std`` holds only as a variance; a held term's truth is not 0, and
+    what depends on the fitted frame (the gyro's up directions) moves with it."""
+    free = [i for i in range(9) if model.ACCEL_PARAMS[i] not in fit.held]
+    held = [i for i in range(9) if model.ACCEL_PARAMS[i] in fit.held]
+    Jw = model.norm_jacobian(fit.theta, stats.means) / residual_sigma(fit.theta, stats)[:, None]
+    G, s_h = (
+        _held_response(Jw, free, held, fit.theta, held_misalignment)
+        if held
+        else (np.zeros((len(free), 0)), np.zeros(0))
+    )
+    held_var = (G**2) @ s_h**2  # in fit.std already (fit_accel): its correlations are G's, not the noise's
+    C = np.linalg.pinv(Jw[:, free].T @ Jw[:, free])
+    d = np.sqrt(np.clip(np.diag(C), 1e-300, None))
+    s = np.sqrt(np.clip(fit.std[free] ** 2 - held_var, 0.0, None))
+    cov = np.zeros((9, 9))
+    cov[np.ix_(free, free)] = (C / np.outer(d, d)) * np.outer(s, s) + (G * s_h**2) @ G.T
+    cov[np.ix_(free, held)] = G * s_h**2
+    cov[np.ix_(held, free)] = cov[np.ix_(free, held)].T
+    cov[np.ix_(held, held)] = np.diag(s_h**2)
+    return cov
+
+
 def fit_accel(
     stats: PoseStatistics,
     g: float,
@@ -415,11 +450,9 @@ def fit_accel(
     dof = int(P - len(free))
     add_var, extra_chi2 = np.zeros(len(free)), 0.0
     if held and held_misalignment:
-        # model error of the held terms: θ_free moves by G·δθ_held, G = −(J_fᵀWJ_f)⁻¹J_fᵀWJ_h (whitened J);
-        # what the free terms cannot absorb, (J_h + J_f·G)·δθ_held, is expected in χ²
+        # model error of the held terms: what the free terms cannot absorb, (J_h + J_f·G)·δθ_held, is expected in χ²
         Jw = J / sig[:, None]
-        G = -np.linalg.lstsq(Jw[:, free], Jw[:, held], rcond=None)[0]
-        s_h = abs(float(held_misalignment)) * np.abs(theta[[0, 0, 1]])  # K_xy, K_xz ∝ K_xx; K_yz ∝ K_yy
+        G, s_h = _held_response(Jw, free, held, theta, held_misalignment)
         add_var = (G**2) @ s_h**2
         extra_chi2 = float(np.sum(((Jw[:, held] + Jw[:, free] @ G) ** 2) @ s_h**2))
     # Correlated noise shifts whole pose means, which the within-pose scatter cannot show; the a-posteriori

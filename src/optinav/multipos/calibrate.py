@@ -778,7 +778,7 @@ def calibrate(
                 "(--rest T0 T1 to choose another window)"
             )
         tg, wg, rg = _on_own_clock(t, gyro, g_ranges, gyr_clock)
-        ucov = _up_cov(fit, st)[np.ix_(rows3, rows3)]
+        ucov = _up_cov(fit, st, held_misalignment)[np.ix_(rows3, rows3)]
 
         def fit_gyro(drop):
             return gyro_cal.calibrate_gyro(
@@ -834,6 +834,8 @@ def calibrate(
                 f"{', '.join(fix)}, or record the turns again",
             ) from None
         gate_log += _gyro_gates(gc, gyro_unit)
+        if fit.held:
+            gate_log.append(_held_frame_gate(gc, held_misalignment))
         _note_turn_sampling(gc.turn_sampling, 1.0 / float(np.median(np.diff(tg))), notes)
         if gyro_unit == "counts" and (fs := gyro_full_scale_note(gyro, gc.K)):
             notes.append(fs)
@@ -926,28 +928,27 @@ def calibrate(
     )
 
 
-def _up_cov(fit: accel.AccelFit, st: accel.PoseStatistics) -> np.ndarray:
+def _up_cov(fit: accel.AccelFit, st: accel.PoseStatistics, held_misalignment: float) -> np.ndarray:
     """Covariance (3P × 3P) of the pose up directions u_k = K⁻¹(m_k − b)/‖·‖ from the accelerometer fit's own
-    uncertainty (its std with the Gauss–Newton correlations), to first order: common to all poses, so the gyro's
-    turn residuals cannot show it (a design whose poses span little — a cone — turns it into the gyro scales)."""
-    free = np.flatnonzero(np.isfinite(fit.std))
-    J = model.norm_jacobian(fit.theta, st.means)[:, free] / accel.residual_sigma(fit.theta, st)[:, None]
-    C = np.linalg.pinv(J.T @ J)
-    d = np.sqrt(np.clip(np.diag(C), 1e-300, None))
-    cov = (C / np.outer(d, d)) * np.outer(fit.std[free], fit.std[free])
+    uncertainty (:func:`accel.parameter_covariance`: its std with the Gauss–Newton correlations, and misalignments
+    held at 0 at their prior ``held_misalignment`` [rad]), to first order: common to all poses, so the gyro's turn
+    residuals cannot show it (a design whose poses span little — a cone — turns it into the gyro scales; a held
+    misalignment shears the six axis poses' directions, and the turns between them, against each other)."""
+    cov = accel.parameter_covariance(fit, st, held_misalignment)
+    used = np.flatnonzero(np.diag(cov) > 0)
 
     def up(theta):
         a = model.corrected(theta, st.means)
         return (a / np.linalg.norm(a, axis=1, keepdims=True)).reshape(-1)
 
     u0 = up(fit.theta)
-    D = np.empty((u0.size, free.size))
-    for c, i in enumerate(free):
+    D = np.empty((u0.size, used.size))
+    for c, i in enumerate(used):
         h = 1e-6 * max(abs(float(fit.theta[i])), float(np.mean(np.abs(fit.theta[:3]))) * 1e-3)
         th = fit.theta.copy()
         th[i] += h
         D[:, c] = (up(th) - u0) / h
-    return D @ cov @ D.T
+    return D @ cov[np.ix_(used, used)] @ D.T
 
 
 def _row_norms(raw, rows, theta=None) -> np.ndarray:
@@ -1449,6 +1450,27 @@ def _gyro_gates(gc, gyro_unit: str) -> list[dict]:
             unit="rad",
         ),
     ]
+
+
+def _held_frame_gate(gc, held_misalignment: float) -> dict:
+    """The gyro K (``gc``) fitted in the frame of an accelerometer whose misalignments are held at 0 (1σ
+    ``held_misalignment`` rad, in its std through the up directions, ``gc.up_K_std``): refused when that share
+    of an element's std exceeds :data:`gyro.MAX_STD` of the scale (a held misalignment shears the six axis poses
+    against each other, and the turns between them by as much: 20 mrad left K_g 2.6 % off); else the gate's
+    outcome."""
+    from . import gyro as gyro_cal
+
+    up = np.zeros(1) if gc.up_K_std is None else gc.up_K_std
+    worst = float(np.max(up[np.isfinite(up)], initial=0.0)) / gc.k0
+    if worst > gyro_cal.MAX_STD:
+        raise OptinavError(
+            f"the gyro K is not determined: std up to {100 * worst:.3g} % of the scale (accepted "
+            f"{100 * gyro_cal.MAX_STD:g} %), from the accelerometer misalignments held at 0 (1σ "
+            f"{held_misalignment:g} rad) that shear the poses the turns are fitted to",
+            "record tilted poses that observe the misalignments (optinav design plans them), or state the "
+            "datasheet's --held-misalignment",
+        )
+    return gate("gyr K std from the held accelerometer misalignments", worst, gyro_cal.MAX_STD, unit="k0")
 
 
 def _misnamed_poses(means: np.ndarray, names: list) -> str | None:
