@@ -54,6 +54,10 @@ from optinav.attitude.checks import (
     check_turning_offset,
     field_rate_sums,
     find_gaps,
+    gap_error,
+    lost_error,
+    lost_warning,
+    uncertain_steps,
     hard_iron,
     mag_fit_stride,
     scale_bin_rows,
@@ -788,6 +792,7 @@ def estimate(
         if not use.any():  # asked for, none usable: the heading was the start's with exit 0
             raise unusable_pol_error(skipped, n)
     gaps = find_gaps(dts)
+    lost, lost_turn = uncertain_steps(dts, gyr)
     # polarization alone without q0: the heading's branch is the recording's to decide, from iframe's runs from
     # either (optinav.attitude.branch); a magnetometer's field picks it as the estimate starts
     decide = pol is not None and q0 is None and mag is None
@@ -871,12 +876,11 @@ def estimate(
     if mag_hard_iron is not None:
         mag = mag - mag_hard_iron
     if gaps.size and not allow_gaps:
-        i = int(gaps[0])
-        raise OptinavError(
-            f"time gap of {dts[i]:.3g} s before sample {i} ({gaps.size} gap(s)): integrating the "
-            "gyro across it would be wrong",
-            "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap",
-        )
+        raise gap_error(float(dts[gaps[0]]), int(gaps[0]), gaps.size)
+    if lost.size and not allow_gaps:
+        raise lost_error(float(dts[lost[0]]), int(lost[0]), lost_turn)
+    if lost.size and checks:
+        lost_warning(lost_turn)
     hi_from = early = None
     if online_fit:
         # the offset from each sample and those before it: the gaps' segments continue one fit (a sensor property),
@@ -933,6 +937,7 @@ def estimate(
                 offline=offline,
                 input_stage=input_stage,
                 checks=False,
+                allow_gaps=True,  # (refused above unless allowed; a segment's lost samples are bridged)
                 **kw,
             )
             if none:

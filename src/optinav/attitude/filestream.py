@@ -964,7 +964,7 @@ def _stream_offline(
         store = _Scratch(fh, fields)
         for row0, t, gyr, acc, dts, _, extra in progress_blocks(src, "attitude: iframe offline", progress):
             checks.collect(row0, gyr, acc, dts)
-            if not (checks.gaps.size and not o.allow_gaps):
+            if not checks.gaps_refused(o.allow_gaps):
                 more = {k: extra[k] for k in ("mag", "q_ref", "movement") if k in store.cols}
                 if "mag" in more and hard_iron[0] is not None:
                     more["mag"] = more["mag"] - hard_iron[0]
@@ -977,13 +977,8 @@ def _stream_offline(
                 store.append(t=t, gyr=gyr, acc=acc, dts=dts, **more)
         checks.finish_second(frame)
         gaps = checks.gaps
-        if gaps.size and not o.allow_gaps:
-            i = int(gaps[0])
-            raise OptinavError(
-                f"time gap of {checks.gap_steps[0]:.3g} s before sample {i} ({gaps.size} gap(s)): "
-                "integrating the gyro across it would be wrong",
-                "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap",
-            )
+        if (err := checks.gap_error(o.allow_gaps)) is not None:
+            raise err
         if gaps.size:  # each segment starts afresh: its first step is a normal one (as estimate)
             for i in gaps:
                 row = store.read(int(i), int(i) + 1).copy()
@@ -1507,7 +1502,7 @@ def stream_attitude(
         )  # fmt: skip
         return dataclasses.replace(run, duration_s=duration)
     branches, branch_rms, collected = [], None, False
-    if decide and not (gaps.size and not o.allow_gaps):
+    if decide and not checks.gaps_refused(o.allow_gaps):
         step("heading branch")
         # gd/cg/qn/mekf from either start: the one that holds the branch (their filters as the estimate's)
         tries = None if method == "iframe" else (method, dict(o.options, frame=frame, input_stage=o.input_stage))
@@ -1533,7 +1528,7 @@ def stream_attitude(
         for row0, t, gyr, acc, dts, _, extra in progress_blocks(src, f"attitude: {method}", progress):
             if not collected:
                 checks.collect(row0, gyr, acc, dts)
-            if gaps.size and not o.allow_gaps:
+            if checks.gaps_refused(o.allow_gaps):
                 continue  # refused below, after the checks that come first
             pm = _block_pol(pol, extra, t, t_first, frame)
             mag = extra.get("mag")
@@ -1562,18 +1557,13 @@ def stream_attitude(
                 tcmp.add(row0, q)
         if not collected:
             checks.finish_second(frame)
-        if online_fit and estimator.mag_hard_iron_from is None and not (gaps.size and not o.allow_gaps):
+        if online_fit and estimator.mag_hard_iron_from is None and not checks.gaps_refused(o.allow_gaps):
             raise checks.online_fit_failed()
         held = estimator.mag_hard_iron_held
         if online_fit and held is not None and held[1] >= estimator.opts["mag_new_time"]:
             raise online_offset_changed(*held)
-        if gaps.size and not o.allow_gaps:
-            i = int(gaps[0])
-            raise OptinavError(
-                f"time gap of {checks.gap_steps[0]:.3g} s before sample {i} ({gaps.size} gap(s)): "
-                "integrating the gyro across it would be wrong",
-                "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap",
-            )
+        if (err := checks.gap_error(o.allow_gaps)) is not None:
+            raise err
         result = None if score is None else score.result()
     est = _estimate(estimator)
     if tcmp is not None:

@@ -56,6 +56,11 @@ class StreamChecks:
         self._witness: list[tuple] = []  # the same sums of a magnetometer the estimate does not use (add_witness)
         self._still: list[tuple] = []  # per TILT_BIN rows: gyro, accelerometer and their squares (the rest bias)
         self._lag_sums: list[tuple] = []  # specific force and gyro sums per _scale_rows rows (the gyro's clock)
+        # rows whose turn across their step is uncertain beyond GAP_TURN (a gap where they lost samples), the
+        # uncertainty, and the block's last gyro row
+        self._turn_rows: list[np.ndarray] = []
+        self._turns: list[np.ndarray] = []
+        self._last_gyr: np.ndarray | None = None
 
     def add_mag(self, mag: np.ndarray, acc: np.ndarray | None = None, gyr: np.ndarray | None = None) -> None:
         """Pass 1, after :meth:`add` of the same block: its magnetometer rows (n, 3); evenly spaced rows are kept,
@@ -93,7 +98,13 @@ class StreamChecks:
         for t, x in enumerate((gyr, acc)):
             np.maximum(self._max[t], _c.axis_extremes(x), out=self._max[t])
         self._held.add(gyr, acc)
-        self._wraps.add(gyr)
+        if gyr.shape[0]:
+            u = _c.lost_turns(gyr, dts, self._last_gyr)
+            k = np.flatnonzero(u > _c.GAP_TURN)
+            self._turn_rows.append(self.n + k)
+            self._turns.append(u[k])
+            self._last_gyr = gyr[-1].copy()
+        self._wraps.add(gyr, dts)
         self._stuck.add(gyr, acc)
         if not self._scale_rows:  # the first block's step sets the 0.1-s bins (of this check and the field's)
             self._scale_rows = _c.scale_bin_rows(float(np.median(dts)))
@@ -169,6 +180,24 @@ class StreamChecks:
         bins, sums = (np.concatenate(x) for x in zip(*self._scale_sums))
         return bins, _c.rate_sums_less_offset(sums, offset), self._scale_rows * self.median_dt
 
+    def gaps_refused(self, allow_gaps: bool) -> bool:
+        """Whether the log's gaps, or its steps that lost samples where the turn is uncertain, are refused."""
+        return bool(self.gaps.size or self.lost.size) and not allow_gaps
+
+    def gap_error(self, allow_gaps: bool = False) -> OptinavError | None:
+        """The refusal of the log's time gaps, or of its steps that lost samples where the turn across them is
+        uncertain (:func:`~optinav.attitude.checks.gap_error`, :func:`~optinav.attitude.checks.lost_error`); with
+        ``allow_gaps`` None, those steps said bridged (:func:`~optinav.attitude.checks.lost_warning`)."""
+        if allow_gaps:
+            if self.lost.size:
+                _c.lost_warning(self.lost_turns)
+            return None
+        if self.gaps.size:
+            return _c.gap_error(float(self.gap_steps[0]), int(self.gaps[0]), self.gaps.size)
+        if self.lost.size:
+            return _c.lost_error(float(self.lost_steps[0]), int(self.lost[0]), self.lost_turns)
+        return None
+
     def finish_first(self) -> None:
         """The checks that need only the first pass, in the order of check_imu; sets ``gaps`` (indices),
         ``median_dt`` (s) and the windows the second pass gathers."""
@@ -181,6 +210,15 @@ class StreamChecks:
         self.gaps = _c.find_gaps(dts)
         self.gap_steps = dts[self.gaps]
         self.median_dt = float(np.median(dts))
+        # the steps that lost samples where the turn across them is uncertain (checks.uncertain_steps)
+        rows, turns = np.concatenate(self._turn_rows), np.concatenate(self._turns)
+        self._turn_rows, self._turns = [], []
+        keep = rows < 0
+        if dts.shape[0] >= 3:
+            step = float(np.median(dts[1:]))
+            keep = (rows > 0) & (dts[rows] > _c.LOST_STEPS * step) & (dts[rows] <= _c.gap_limit(step))
+        #: rows, rad and s: the steps that lost samples where the gyro's turn across them is uncertain
+        self.lost, self.lost_turns, self.lost_steps = rows[keep], turns[keep], dts[rows[keep]]
         del dts
         _c.check_rate(self.median_dt)
         if self._noisy is not None:
