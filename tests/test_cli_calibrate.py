@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from optinav.cli.main import main
+from optinav.errors import OptinavError
 from optinav.core.results import Truth
 from optinav.multipos import model
 from optinav.multipos.result import CalibrationResult
@@ -334,6 +335,24 @@ def test_imucal_session_ferraris_method_matches_reference(tmp_path):
     snap = np.genfromtxt(DATA / "reference" / "ferraris_example_calibrated_head50.csv", delimiter=",", names=True)
     np.testing.assert_allclose(got.acc[:50, 0], snap["acc_x"], rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(got.gyr[:50, 2] * 180 / np.pi, snap["gyr_z"], rtol=1e-8, atol=1e-8)
+
+
+def test_an_axis_at_the_rail_and_a_gyro_saturating_in_every_turn_are_named(session):
+    """An accelerometer axis stuck at the 16-bit rail was refused as "every accelerometer sample is at the full
+    scale" (the whole sensor); it names the axis now. A gyro that saturates in every turn was refused with "turn more
+    slowly" only, where --no-gyro (no_gyro: the gyroscope left out) calibrates the accelerometer right."""
+    from optinav.io import read_imu
+    from optinav.multipos.calibrate import calibrate
+
+    d, data, truth = session
+    log = read_imu(data)
+    acc = log.acc.copy()
+    acc[:, 2] = 32767.0
+    with pytest.raises(OptinavError, match=r"full scale \(axis z in all of them: a dead or disconnected axis\?\)"):
+        calibrate(log.t, acc, acc_unit="counts", g=truth["gravity"])
+    gyro = np.clip(log.gyr, -0.02, 0.02)  # every turn beyond a ±0.02 rad/s range
+    with pytest.raises(OptinavError, match="saturates in .* turn.*--no-gyro calibrates the accelerometer alone"):
+        calibrate(log.t, log.acc, gyro, acc_unit="counts", g=truth["gravity"], gyro_range=0.02)
 
 
 def test_saturated_samples_are_excluded_and_counted(session):

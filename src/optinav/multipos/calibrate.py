@@ -81,8 +81,8 @@ def gyro_full_scale_note(gyro_raw, K, flags: str = "--rate, --time-unit") -> str
     )
 
 
-def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
-    """Rows (N,) with any axis at or beyond the full scale: ``limit`` (raw units) is ±R (a scalar or one per
+def saturated_mask(raw, limit=None, *, counts: bool = False, per_axis: bool = False) -> np.ndarray:
+    """Rows (N,) with any axis at or beyond the full scale (``per_axis``: (N, 3), each axis): ``limit`` (raw units) is ±R (a scalar or one per
     axis) or a span (lo, hi); without it, raw ``counts`` saturate at the ends of the integer type they were
     written in (:func:`count_range`: never at mid-scale, so an unsigned ADC resting near 32768 is not
     saturated), and other units are not judged. A value within a few ulp of the limit counts as at it: deg/s or
@@ -90,7 +90,7 @@ def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
     raw = np.asarray(raw, float)
     if limit is None:
         if not counts:
-            return np.zeros(raw.shape[0], bool)
+            return np.zeros(raw.shape if per_axis else raw.shape[0], bool)
         lo, hi = count_range(raw)
     elif isinstance(limit, tuple) and len(limit) == 2:
         lo, hi = float(limit[0]), float(limit[1])
@@ -99,7 +99,8 @@ def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
         lo, hi = -lim, lim
     tol = 8 * np.finfo(float).eps * np.maximum(np.abs(lo), np.abs(hi))
     with np.errstate(invalid="ignore"):
-        return np.any((raw <= lo + tol) | (raw >= hi - tol), axis=1)
+        at = (raw <= lo + tol) | (raw >= hi - tol)
+    return at if per_axis else np.any(at, axis=1)
 
 
 def clipped_gyro_rows(gyr: np.ndarray, dt: float) -> np.ndarray:
@@ -558,7 +559,13 @@ def calibrate(
         sat_g |= clipped_gyro_rows(gyro, float(np.median(np.diff(t[: min(t.size, 65537)]))))
     valid = ~sat_a
     if not np.any(valid):
-        raise OptinavError("every accelerometer sample is at the full scale", "check --acc-range or --acc-unit")
+        # which axes: one stuck at the rail (a dead or unplugged axis) was reported as the whole sensor
+        full = saturated_mask(acc, acc_range, counts=acc_unit == "counts", per_axis=True).all(axis=0)
+        at = [ax for ax, f in zip("xyz", full) if f]
+        where = f" (axis {', '.join(at)} in all of them: a dead or disconnected axis?)" if 0 < len(at) < 3 else ""
+        raise OptinavError(
+            f"every accelerometer sample is at the full scale{where}", "check --acc-range or --acc-unit, and the sensor"
+        )
     rest_norm = float(np.median(_row_norms(acc, valid), overwrite_input=True))
     if gyro is not None and "counts" not in (acc_unit, gyro_unit):
         gn = _row_norms(gyro, valid)
@@ -831,7 +838,7 @@ def calibrate(
                 fix.append("record with a larger accelerometer range (--acc-range states it)")
             raise type(exc)(
                 f"{exc.cause} — {'; '.join(why)}, left out of the gyro calibration",
-                f"{', '.join(fix)}, or record the turns again",
+                f"{', '.join(fix)}, or record the turns again; --no-gyro calibrates the accelerometer alone",
             ) from None
         gate_log += _gyro_gates(gc, gyro_unit)
         if fit.held:
