@@ -355,6 +355,22 @@ def test_an_axis_at_the_rail_and_a_gyro_saturating_in_every_turn_are_named(sessi
         calibrate(log.t, log.acc, gyro, acc_unit="counts", g=truth["gravity"], gyro_range=0.02)
 
 
+def test_apply_names_offset_binary_counts(session, tmp_path, capsys):
+    """A calibration of signed counts applied to the same data in offset binary (+32768) was refused as "the data's
+    raw unit (counts) is not the one the calibration was made for": both are counts. The encoding is named."""
+    from optinav.io import read_imu, write_imu
+
+    d, data, truth = session
+    res = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "accel", str(data), "--acc-unit", "counts", "--out", str(res)]) == 0
+    log = read_imu(data, acc_unit="counts")
+    log.acc = log.acc + 32768.0
+    off = write_imu(tmp_path / "off.csv", log, acc_unit="counts")
+    assert main(["apply", str(res), str(off), "--out", str(tmp_path / "o.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "offset-binary counts" in err and "subtract 32768" in err, err
+
+
 def test_saturated_samples_are_excluded_and_counted(session):
     from optinav.io import read_imu
     from optinav.multipos.calibrate import calibrate, saturated_mask

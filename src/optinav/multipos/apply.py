@@ -94,7 +94,7 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
                 pairs = (("accelerometer", log.acc, acc), ("gyroscope", log.gyr, gyro))
                 left = [name for name, raw, x in pairs if x is None and raw is not None]
             if writer.rows == 0 and acc is not None:
-                _check_corrected_norm(acc, log, data_path, result_path, res.method == "imu_tk")
+                _check_corrected_norm(acc, log, data_path, result_path, res.method == "imu_tk", res)
                 _check_rest_norm(res, acc, log, data_path, result_path)
                 if gyro is not None:
                     _check_corrected_gyro(res, acc, gyro, log, data_path, result_path)
@@ -125,13 +125,29 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
     return f"wrote {writer.rows} corrected samples to {out} ({', '.join(written) if writer.rows else 'none'})"
 
 
-def _check_corrected_norm(acc, log, data_path, result_path, unitless: bool = False) -> None:
+#: the offsets of offset-binary counts (unsigned, mid-scale at rest) of 16-, 24- and 32-bit sensors
+OFFSET_BINARY = (2.0**15, 2.0**23, 2.0**31)
+
+
+def _check_corrected_norm(acc, log, data_path, result_path, unitless: bool = False, res=None) -> None:
     """The first block's corrected specific force must read about g (median norm within ×2): a calibration made
     for other raw units (g for counts, counts for m/s²) gave |a| of 0.17 or 19 964 m/s² with exit 0. ``unitless``:
-    a calibration file that records no unit (imu_tk's), whose raw unit no flag can state."""
+    a calibration file that records no unit (imu_tk's), whose raw unit no flag can state. Counts in offset binary
+    (each axis mid-scale at rest) under a calibration of signed ones (``res``) are named so."""
     from optinav.core.units import G_STANDARD
 
     med = float(np.nanmedian(np.sqrt(np.einsum("ij,ij->i", acc, acc))))
+    if not 0.5 * G_STANDARD <= med <= 2.0 * G_STANDARD and res is not None and log.acc_input_unit == "counts":
+        raw = calibration_raw(log, "acc", res.units.get("accelerometer_raw"))
+        for off in OFFSET_BINARY:
+            a = res.correct_accel(raw - off)
+            if abs(float(np.nanmedian(np.sqrt(np.einsum("ij,ij->i", a, a)))) / G_STANDARD - 1.0) < 0.1:
+                raise OptinavError(
+                    f"{Path(result_path).name} applied to {Path(data_path).name} gives |a| = {med:.4g} m/s^2, and "
+                    f"{G_STANDARD:.4g} with {off:.0f} taken off every count: the data are offset-binary counts "
+                    "(unsigned, mid-scale at zero), the calibration was made for signed ones",
+                    f"convert the counts to signed ones (subtract {off:.0f}), or calibrate from data in this encoding",
+                )
     if not 0.5 * G_STANDARD <= med <= 2.0 * G_STANDARD:
         what = (
             f"{Path(result_path).name} applied to {Path(data_path).name} gives |a| = {med:.4g} m/s^2 (median of the "
