@@ -1063,3 +1063,23 @@ def test_gyro_std_carries_the_held_accelerometer_misalignments(seed):
         # a held misalignment of 1σ 0.05 rad leaves K_g's std beyond 5 % of the scale: refused, naming the cause
         with pytest.raises(OptinavError, match="held at 0 .*tilted poses"):
             calibrate(s.t, s.acc, s.gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity, held_misalignment=0.05)
+
+
+@pytest.mark.parametrize(("seed", "dwell"), [(14, 20), (5, 8)])
+def test_a_clean_six_pose_session_is_not_refused_for_a_scale_sign(seed, dwell):
+    """The norm |K⁻¹(m − b)| = g cannot tell the sign of a column of K (K·D has the inverse D·K⁻¹), and the fit
+    of a clean session (six axis poses twice, seed 14) converged to K_zz = −209 and was refused as "accelerometer z
+    reads −z". The scales are made positive, at no change of the cost: the accelerometer within 3 std of the
+    truth."""
+    s = simulate(np.vstack([SCHEMES["six"]] * 2), dwell_s=dwell, rest_s=30, transition_s=4, acc_unit="counts",
+                 gyro_unit="counts", rng=seed)  # fmt: skip
+    r = calibrate(s.t, s.acc, s.gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity)
+    K, std = np.diag(r.accelerometer["K"]), np.diag(np.asarray(r.accelerometer["K_std"]))
+    assert np.all(np.abs(K - np.diag(s.acc_K)) < 3.0 * std), (K, np.diag(s.acc_K), std)
+    from optinav.multipos.accel import positive_scales
+
+    theta = np.array([-2.0, 3.0, -4.0, 0.1, 0.2, 0.3, 1.0, 2.0, 3.0])
+    m = np.random.default_rng(0).normal(0.0, 5.0, (20, 3))
+    flipped = positive_scales(theta)
+    assert np.all(flipped[:3] > 0)
+    np.testing.assert_allclose(model.norm_residuals(flipped, m, 9.8), model.norm_residuals(theta, m, 9.8), rtol=1e-12)

@@ -296,6 +296,22 @@ def _choose_model(
     return diag, list(MISALIGNMENT), note
 
 
+#: per column of K (x, y, z), its entries in θ (:data:`~optinav.multipos.model.ACCEL_PARAMS`: K_xx, K_yy, K_zz,
+#: K_xy, K_xz, K_yz)
+_COLUMNS = ((0,), (1, 3), (2, 4, 5))
+
+
+def positive_scales(theta) -> np.ndarray:
+    """θ with each column of K whose diagonal is negative negated: |K⁻¹(m − b)| is the same (K·D, D = diag(±1),
+    has the inverse D·K⁻¹), so the norm fit cannot tell the signs, and a sensor's scales are positive. A clean
+    session of six axis poses done twice converged to K_zz = −209 and was refused as an axis flipped."""
+    th = np.array(theta, dtype=float)
+    for j, idx in enumerate(_COLUMNS):
+        if th[j] < 0:
+            th[list(idx)] *= -1.0
+    return th
+
+
 def _held_response(Jw, free, held, theta, held_misalignment: float) -> tuple[np.ndarray, np.ndarray]:
     """(G, s_h) of parameters ``held`` at 0: G = −(J_fᵀWJ_f)⁻¹J_fᵀWJ_h the response of the ``free`` ones to a
     held term (``Jw`` the whitened Jacobian over all 9), s_h their 1σ [raw/(m/s^2)] from ``held_misalignment``
@@ -439,7 +455,7 @@ def fit_accel(
     if method == "pso" and "v_max" not in options:
         options["v_max"] = 0.2 * (hi - lo)[free]  # the paper's V ∈ [−1, 1] is for unit-sized parameters
     res = minimize(problem, _CORE_METHOD[method], rng=rng, **options)
-    theta = full_theta(res.x)
+    theta = positive_scales(full_theta(res.x))
     r = model.norm_residuals(theta, stats.means, g)
     sig = residual_sigma(theta, stats)
     J = model.norm_jacobian(theta, stats.means)
