@@ -102,6 +102,12 @@ def test_time_inputs_agree_and_naive_is_error():
             solar_position_deg(bad, 38.9, 121.5)
     with pytest.raises(OptinavError, match="ISO"):
         utc_seconds("yesterday+08:00")
+    # a leap second (GNSS and UTC logs write 23:59:60) was refused as "not ISO 8601": it is the next day's 00:00:00
+    # in the seconds the sun is computed from; an ordinal date is named as unread
+    assert utc_seconds("2016-12-31T23:59:60Z") == utc_seconds("2017-01-01T00:00:00Z")
+    assert utc_seconds("2016-12-31T23:59:60.25+00:00") - utc_seconds("2016-12-31T23:59:59+00:00") == 1.25
+    with pytest.raises(OptinavError, match="not an ordinal or week date"):
+        utc_seconds("2021-016T10:00:00+08:00")
     with pytest.raises(OptinavError, match="plain number"):
         utc_seconds(1.6e9)
 

@@ -18,6 +18,7 @@ UT1 is taken equal to UTC (|UT1 − UTC| < 0.9 s, ≤ 0.004° of hour angle).
 from __future__ import annotations
 
 import datetime as _dt
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -49,6 +50,10 @@ _SUN_RADIUS_DEG = 0.26667
 # --- time -------------------------------------------------------------------------------------------------
 
 
+#: an ISO time at a leap second: (everything before the seconds, the rest after them)
+_LEAP_SECOND = re.compile(r"^(.*\d{2}:\d{2}:)60((?:\.\d+)?(?:Z|[+-]\d{2}:?\d{2})?)$")
+
+
 def _naive_error(what) -> OptinavError:
     return OptinavError(
         f"time {what!s} has no UTC offset",
@@ -60,13 +65,21 @@ def _naive_error(what) -> OptinavError:
 def _one_seconds(x) -> float:
     if isinstance(x, str):
         s = x.strip()
+        # a leap second (23:59:60, as GNSS receivers and UTC logs write it): Python's datetime has none; the
+        # second after 23:59:59 is the next day's 00:00:00 in the seconds the sun is computed from (1 s: 0.004°)
+        leap = _LEAP_SECOND.match(s)
+        if leap:
+            s = leap.group(1) + "59" + leap.group(2)
         try:
             d = _dt.datetime.fromisoformat(s)
         except ValueError:
-            raise OptinavError(f"time {x!r} is not ISO 8601", "write it like 2021-01-17T10:34:00+08:00") from None
+            raise OptinavError(
+                f"time {x!r} is not an ISO 8601 date and time that optinav reads",
+                "write it like 2021-01-17T10:34:00+08:00 (calendar date, not an ordinal or week date; years 1-9999)",
+            ) from None
         if d.tzinfo is None or d.utcoffset() is None:
             raise _naive_error(repr(x))
-        return d.timestamp()
+        return d.timestamp() + (1.0 if leap else 0.0)
     if isinstance(x, _dt.datetime):
         if x.tzinfo is None or x.utcoffset() is None:
             raise _naive_error(x.isoformat())
