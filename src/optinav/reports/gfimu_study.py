@@ -406,8 +406,12 @@ def _comparison_table(n) -> Table:
         "means at once, weighting each equation by its noise; the closed form solves them in "
         "sequence (directions, then positions from the centripetal terms), so the position "
         "errors inherit the direction errors: there LM helps, lowering the worst position error "
-        f"in {100 * min(frac):.0f} % or more of the "
-        "data sets. The directions come from the gravity terms alone in both methods, so there "
+        + (
+            "in every data set"
+            if min(frac) >= 1.0
+            else f"in {100 * min(frac):.0f}–{100 * max(frac):.0f} % of the data sets"
+        )
+        + ". The directions come from the gravity terms alone in both methods, so there "
         "LM gains little: it is better in only "
         f"{100 * min(frac_dir):.0f}–{100 * max(frac_dir):.0f} % of the data sets.",
         formats=[None, None, r4, r4, rounded(1), "{:.0f}"],

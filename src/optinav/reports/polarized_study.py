@@ -48,7 +48,7 @@ LABELS = {
     "gd": "GD (Madgwick) as published",
     "cg": "CG as published",
     "qn": "QN (paper) as published",
-    "mekf": "MEKF + gyro bias as published",
+    "mekf": "MEKF + gyro bias (optinav's baseline, no paper's), no input stage",
 }
 ANGLES = ("roll", "pitch", "yaw")
 GYRO_BIAS_DEG_S = (0.3, -0.2, 0.25)
