@@ -1543,6 +1543,87 @@ class HeldRows:
             )
 
 
+#: a magnetometer that holds its reading this long (s) while the gyro turns the body this far (rad, ∫|ω|dt):
+#: one stuck from mid-motion to the end ran at 15-35° heading RMSE with exit 0, a dead axis (always 0) at
+#: 29-144°. BROAD's magnetometers repeat a sample for at most 14 rows (0.05 s) between their updates
+MAG_HELD_S, MAG_HELD_TURN = 2.0, 1.0
+
+
+class MagHeld:
+    """The longest stretch over which the magnetometer repeats one reading — the whole sample, or one axis while
+    its others change — while the gyro turns the body (:data:`MAG_HELD_S`, :data:`MAG_HELD_TURN`), over the blocks
+    of a log fed in order (:meth:`add`; rows without a field are skipped, their turn counted); :meth:`check`
+    refuses it: no field stays the same in a turning body."""
+
+    def __init__(self):
+        self.n = 0
+        self.prev = None  # the last finite magnetometer row
+        self.pending = np.zeros(2)  # turn (rad) and time (s) since that row
+        # per column (axis x, y, z; 3 the whole sample): the open run (first row, turn, time, other axes changed)
+        self.open: list = [None] * 4
+        self.best = [(0.0, 0.0, 0, c, 0.0) for c in range(4)]  # per column: turn, time, first row, column, value
+
+    def add(self, gyr: np.ndarray, mag: np.ndarray, dts: np.ndarray) -> None:
+        """One block: gyr (n, 3) rad/s, mag (n, 3) any unit (NaN rows: no sample), dts (n,) or (1,) s."""
+        n = gyr.shape[0]
+        if not n:
+            return
+        inc = np.column_stack([_norm(gyr) * np.broadcast_to(dts, (n,)), np.broadcast_to(dts, (n,))])
+        cum = np.cumsum(inc, axis=0)
+        idx = np.flatnonzero(np.isfinite(mag).all(axis=1))
+        if not idx.size:
+            self.pending += cum[-1]
+            self.n += n
+            return
+        m = mag[idx]
+        seg = np.diff(np.vstack([np.zeros((1, 2)), cum[idx]]), axis=0)  # turn and time since the finite row before
+        seg[0] += self.pending
+        prev = np.vstack([np.full((1, 3), np.nan) if self.prev is None else self.prev[None, :], m[:-1]])
+        eq = m == prev
+        for c in range(4):
+            same = eq.all(axis=1) if c == 3 else eq[:, c]
+            other = np.zeros(len(idx), bool) if c == 3 else (~eq[:, [j for j in range(3) if j != c]]).any(axis=1)
+            runs = mask_runs(same)
+            if not runs.size:
+                self.open[c] = None
+                continue
+            cs = np.vstack([np.zeros((1, 2)), np.cumsum(seg, axis=0)])
+            co = np.r_[0, np.cumsum(other)]
+            for a, b in runs:
+                turn, time = cs[b] - cs[a]
+                changed = co[b] > co[a]
+                start = self.n + int(idx[a]) - 1
+                if a == 0 and self.open[c] is not None:
+                    start, t0, s0, o0 = self.open[c]
+                    turn, time, changed = turn + t0, time + s0, changed or o0
+                if (c == 3 or changed) and turn > self.best[c][0]:
+                    self.best[c] = (float(turn), float(time), int(start), c, float(m[a, min(c, 2)]))
+                self.open[c] = (start, float(turn), float(time), bool(changed)) if b == len(idx) else None
+        self.prev = m[-1].copy()
+        self.pending = cum[-1] - cum[idx[-1]]
+        self.n += n
+
+    def check(self) -> None:
+        # the whole sample first: an axis's run of a stuck sample began with the axis's own repeats before it
+        held = [b for b in (self.best[3], *self.best[:3]) if b[1] >= MAG_HELD_S and b[0] >= MAG_HELD_TURN]
+        if not held:
+            return
+        turn, time, start, c, value = held[0] if held[0][3] == 3 else max(held)
+        what = (
+            "the magnetometer repeats one reading"
+            if c == 3
+            else f"magnetometer axis {'xyz'[c]} reads {value:.6g} while its other axes change"
+        )
+        raise OptinavError(
+            f"{what} for {time:.3g} s from row {start + 1} while the gyro turns the body {np.degrees(turn):.0f}°: "
+            "no field holds still in a turning body — "
+            + (
+                "a magnetometer that stopped, or a logger holding its last value" if c == 3 else "a dead or frozen axis"
+            ),
+            "check the magnetometer and --mag-columns, or drop --mag (6D)",
+        )
+
+
 #: a gyro axis whose reading flips sign between two samples, both beyond WRAP_SHARE of its largest |reading|, from
 #: WRAP_MIN rad/s (below the smallest common range, 125 °/s): readings that wrap around at the range. BROAD 07 with
 #: its counts wrapped at ±250 °/s ran at 52° with exit 0; the nine trials as recorded flip at ≤ 0.16 of their

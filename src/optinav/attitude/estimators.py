@@ -53,6 +53,7 @@ from optinav.attitude.checks import (
     check_q0,
     check_turning_offset,
     field_rate_sums,
+    MagHeld,
     find_gaps,
     gap_error,
     lost_error,
@@ -831,6 +832,11 @@ def estimate(
         if q0 is not None:
             check_q0(_as_q0(q0), acc, frame)
         if mag is not None:
+            # a magnetometer (or one axis) that holds its reading while the body turns, before any field check
+            # reads its values: a dead axis was refused as a hard-iron offset, whose remedy then ran 3-4° off
+            held = MagHeld()
+            held.add(gyr, mag, dts)
+            held.check()
             tilt = functools.cache(lambda: mag_sums(acc, mag))  # the whole log's tilt-bin sums, once if at all
             checked = mag_hard_iron  # the offset the field checks take off: fitted online, the whole recording's
             turn = None  # rad, the heading turn it gives online (offset_heading): how the field is used before a fit

@@ -49,6 +49,7 @@ class StreamChecks:
         self._mag: list[np.ndarray] = []  # magnetometer rows 0, s, 2s, … (the hard-iron check)
         self._mag_seen, self._mag_stride, self._mag_kept = 0, 1, 0
         self._mag_any = False  # a magnetometer row with three finite values seen
+        self._mag_held = _c.MagHeld()  # the magnetometer (or an axis) holding its reading in a turn
         self._mag_sums: list[tuple] = []  # per TILT_BIN rows: gravity and field sums (the magnetometer-axes check)
         self._gyr_sums: list[tuple] = []  # per TILT_BIN rows: gyro sums (the field turning as the gyro says)
         self._scale_sums: list[tuple] = []  # field and gyro sums per _scale_rows rows (the gyro-scale check)
@@ -66,6 +67,8 @@ class StreamChecks:
         """Pass 1, after :meth:`add` of the same block: its magnetometer rows (n, 3); evenly spaced rows are kept,
         at most twice :data:`~optinav.attitude.checks.MAG_FIT_ROWS` (the spacing doubles when full); with ``acc``
         the block's gravity and field sums per bin (:func:`~optinav.attitude.checks.mag_sums`)."""
+        if gyr is not None:
+            self._mag_held.add(gyr, mag, self._dts[-1])
         if acc is not None:
             self._mag_sums.append(_c.mag_sums(acc, mag, self.n - mag.shape[0]))
         if gyr is not None:
@@ -205,6 +208,7 @@ class StreamChecks:
             from optinav.attitude.estimators import no_mag_error
 
             raise no_mag_error()
+        self._mag_held.check()
         dts = np.concatenate(self._dts)
         self._dts = []
         self.gaps = _c.find_gaps(dts)
