@@ -212,7 +212,7 @@ def check_q0(q0: np.ndarray, acc: np.ndarray, frame: str) -> None:
             else "; check its frame and convention (q_b^n, [w, x, y, z])"
         ),
         InitialAttitudeWarning,
-        stacklevel=4,
+        stacklevel=5,  # estimate()'s caller (check_q0 < imu_checks < estimate < _timed)
     )
 
 
@@ -478,10 +478,7 @@ def tilting_window(bins: np.ndarray, sums: np.ndarray, n: int, dt: float) -> sli
     w = int(np.ceil(UNIT_WINDOW_S / dt)) if dt > 0 else n
     if n <= w or bins.size == 0:
         return slice(0, n)
-    m = max(1, int(round(TILT_BIN_S / (TILT_BIN * dt))))
-    mean = _grouped_tilt_sums(bins, sums, m)
-    u = mean / (_norm(mean)[:, None] + 1e-300)
-    ang = np.arccos(np.clip(np.einsum("ij,ij->i", u[1:], u[:-1]), -1.0, 1.0))
+    m, ang = tilt_steps(bins, sums, dt)
     wb = max(1, w // (m * TILT_BIN))
     if ang.size <= wb:
         return slice(0, w)
@@ -489,6 +486,16 @@ def tilting_window(bins: np.ndarray, sums: np.ndarray, n: int, dt: float) -> sli
     j = int(np.argmax(c[wb:] - c[:-wb]))
     start = min(j * m * TILT_BIN, n - w)
     return slice(start, start + w)
+
+
+def tilt_steps(bins: np.ndarray, sums: np.ndarray, dt: float) -> tuple[int, np.ndarray]:
+    """(m, angles): the angles (rad) between consecutive means of the specific force over ``m`` TILT_BIN-sample
+    bins (~TILT_BIN_S s; ``bins``/``sums`` from :func:`tilt_sums`, step ``dt`` s): how far gravity turns in the
+    body, whatever the gyro's unit."""
+    m = max(1, int(round(TILT_BIN_S / (TILT_BIN * dt))))
+    mean = _grouped_tilt_sums(bins, sums, m)
+    u = mean / (_norm(mean)[:, None] + 1e-300)
+    return m, np.arccos(np.clip(np.einsum("ij,ij->i", u[1:], u[:-1]), -1.0, 1.0))
 
 
 def gyro_unit_hint(
@@ -4451,3 +4458,25 @@ def check_untracked_bias(reading: tuple[np.ndarray, np.ndarray, float] | None, m
         "subtract the bias from the gyro (calibrate it, optinav apply), or drop --no-input-stage (its front end "
         f"estimates the bias; beyond 2 °/s with --method iframe --option bias_clip={np.ceil(2.0 * worst * 100.0) / 100.0:g})",
     )
+
+
+def imu_checks(gyr, acc, dts, frame: str, method: str, opts: dict, input_stage: bool, q0=None, field=None) -> float:
+    """The checks :func:`~optinav.attitude.estimate` runs on gyr (N, 3) rad/s, acc (N, 3) m/s² and dts (N,) or (1,)
+    s before it estimates: :func:`check_imu`, the gyro bias against what ``method`` tracks (``opts``,
+    ``input_stage``; ``field()``: the magnetometer's :func:`field_rate_sums`), the frame warning and, with ``q0``
+    (4,), its tilt. Returns the typical step (s) they judged by."""
+    from optinav.attitude.methods import bias_clip
+
+    step = float(np.median(dts))
+    clip = bias_clip(method, opts, input_stage)
+    reading = rest_reading(*still_sums(gyr, acc), step)
+    # a bias beyond what the unit checks allow for is taken off for them: it is judged as a bias just after
+    check_imu(gyr, acc, dts, rest=rest_offset(reading))
+    if clip is not None:
+        check_bias_range(reading, clip, method, whole=lambda: whole_log_bins(gyr, acc, dts), field=field)
+    else:
+        check_untracked_bias(reading, method)
+    check_frame(acc, frame, dt=step)
+    if q0 is not None:
+        check_q0(q0, acc, frame)
+    return step

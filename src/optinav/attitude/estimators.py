@@ -44,13 +44,10 @@ from optinav.attitude.branch import (
     weakest,
 )
 from optinav.attitude.checks import (
-    check_bias_range,
-    check_frame,
-    check_imu,
+    imu_checks,
     body_turned,
     check_mag,
     check_mag_axes,
-    check_q0,
     check_turning_offset,
     field_rate_sums,
     MagHeld,
@@ -63,11 +60,6 @@ from optinav.attitude.checks import (
     mag_fit_stride,
     scale_bin_rows,
     small_offset,
-    still_sums,
-    whole_log_bins,
-    check_untracked_bias,
-    rest_offset,
-    rest_reading,
     end_tail,
     end_up,
     mag_sums,
@@ -101,7 +93,6 @@ from optinav.attitude.methods import (
     METHODS,
     _method,
     _options,
-    bias_clip,
     declination_without_mag,
     variant,
 )
@@ -816,21 +807,11 @@ def estimate(
         )
     if checks:
         step = float(np.median(dts))  # the typical step (s) the checks judge by
-        clip = bias_clip(method, opts, input_stage)
-        reading = rest_reading(*still_sums(gyr, acc), step)
-        # a bias beyond what the unit checks allow for is taken off for them: it is judged as a bias just after
-        check_imu(gyr, acc, dts, rest=rest_offset(reading))
         rows = scale_bin_rows(step)
         # the field's and the gyro's sums per 0.1-s bin: for the bias range (a turn or a bias) and the field's checks
         turns = None if mag is None else (*field_rate_sums(gyr, mag, rows), rows * step)
-        if clip is not None:
-            field = None if turns is None else lambda: turns
-            check_bias_range(reading, clip, method, whole=lambda: whole_log_bins(gyr, acc, dts), field=field)
-        else:
-            check_untracked_bias(reading, method)
-        check_frame(acc, frame, dt=step)
-        if q0 is not None:
-            check_q0(_as_q0(q0), acc, frame)
+        field = None if turns is None else lambda: turns
+        imu_checks(gyr, acc, dts, frame, method, opts, input_stage, None if q0 is None else _as_q0(q0), field)
         if mag is not None:
             # a magnetometer (or one axis) that holds its reading while the body turns, before any field check
             # reads its values: a dead axis was refused as a hard-iron offset, whose remedy then ran 3-4° off
