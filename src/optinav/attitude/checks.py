@@ -7,6 +7,7 @@ wrong attitude); the frame check warns once (an upside-down start is possible).
 from __future__ import annotations
 
 import functools
+import itertools
 import warnings
 from dataclasses import dataclass, replace
 
@@ -4480,3 +4481,107 @@ def imu_checks(gyr, acc, dts, frame: str, method: str, opts: dict, input_stage: 
     if q0 is not None:
         check_q0(q0, acc, frame)
     return step
+
+
+#: a streaming filter judges its inputs (:class:`StartChecks`) on its first START_S s at least (the span of the
+#: gyro-unit window), on more while gravity has turned in the body by less than START_TURN rad (:func:`tilt_steps`;
+#: how it turns tells the gyro's unit; a body at rest tells little), up to START_MAX_S s or START_MAX_ROWS samples
+START_S = UNIT_WINDOW_S
+START_TURN = 1.0
+START_MAX_S = 60.0
+START_MAX_ROWS = 1 << 19
+#: samples given one by one are kept as numbers in blocks of this many rows (a float in a tuple takes 32 bytes)
+START_BLOCK_ROWS = 4096
+
+
+class StartChecks:
+    """:func:`imu_checks` run once on a stream's first samples (a streaming filter's; the arguments after ``dts``):
+    :meth:`sample` and :meth:`chunk` gather them, judge them once they span :data:`START_S` s with gravity turned by
+    :data:`START_TURN` rad in the body (at most :data:`START_MAX_S` s) and then return True (the filter drops this
+    object: no cost after). A refusal is raised again for every later sample: a loop that skips refused samples
+    cannot run on."""
+
+    def __init__(self, frame: str, method: str, opts: dict, input_stage: bool = True, q0=None):
+        self._args = (frame, method, opts, input_stage, q0)
+        self._rows: list[tuple] = []  # one sample's (gx, gy, gz, ax, ay, az, dt) each, since the last block
+        self._blocks: list[np.ndarray] = []  # (n, 7) arrays: chunks, and the rows gathered before them
+        self.n, self.t = 0, 0.0  # samples and seconds gathered
+        self._due = START_S  # the time at which the samples are judged (next)
+        self.error: OptinavError | None = None
+
+    def anew(self, q0=None) -> StartChecks:
+        """The checks after the filter's reset from ``q0``: gathering begins anew (the samples judged must be one
+        stretch), a refusal stands (the units are the sensor's)."""
+        return self if self.error is not None else StartChecks(*self._args[:4], q0)
+
+    def sample(self, g, a, h: float) -> bool:
+        """One sample (gyr, acc (3,), step h s) before the filter uses it; True once the inputs passed."""
+        if self.error is not None:
+            self._refuse()
+        rows = self._rows
+        rows.append((g[0], g[1], g[2], a[0], a[1], a[2], h))  # numbers: a caller may reuse its arrays
+        self.t += h
+        return (self.t >= self._due or len(rows) >= START_BLOCK_ROWS) and self._more()
+
+    def chunk(self, g: np.ndarray, a: np.ndarray, d: np.ndarray) -> bool:
+        """A chunk (gyr, acc (N, 3), steps d (N,) or (1,) s) before the filter uses it: its rows up to where the
+        inputs are judged (a long first chunk is judged on its first seconds); True once the inputs passed."""
+        if self.error is not None:
+            self._refuse()
+        self._flush()
+        n = min(g.shape[0], START_MAX_ROWS - self.n)
+        d = np.broadcast_to(d, (g.shape[0],))[:n]
+        t = self.t + np.cumsum(d)
+        i = 0
+        while i < n:
+            j = min(n, max(i, int(np.searchsorted(t, self._due))) + 1)  # through the row they are judged at next
+            self._blocks.append(np.column_stack([g[i:j], a[i:j], d[i:j]]))
+            self.n, self.t, i = self.n + j - i, float(t[j - 1]), j
+            if (self.t >= self._due or self.n >= START_MAX_ROWS) and self._judge():
+                return True
+        return False
+
+    def _more(self) -> bool:
+        """After a block of samples, or with the judgement due: judged (True: the inputs passed) or not yet."""
+        self._flush()
+        return (self.t >= self._due or self.n >= START_MAX_ROWS) and self._judge()
+
+    def _flush(self) -> None:
+        """The rows gathered one by one as a block."""
+        if self._rows:
+            k = len(self._rows)
+            self._blocks.append(np.fromiter(itertools.chain.from_iterable(self._rows), float, 7 * k).reshape(k, 7))
+            self._rows = []
+            self.n += k
+
+    def _judge(self) -> bool:
+        """Run the checks once gravity has turned enough in the body (else judge later; at the limits in any case)."""
+        self._flush()
+        x = self._blocks[0] if len(self._blocks) == 1 else np.concatenate(self._blocks)
+        self._blocks = [x]
+        x = x[np.isfinite(x).all(axis=1)]  # a non-finite sample the filter refused
+        self.t = float(np.sum(x[:, 6]))
+        end = self.t >= START_MAX_S or self.n >= START_MAX_ROWS
+        if x.shape[0] < 2 or not (end or self._tilted(x) >= START_TURN):
+            self._due = min(self.t + 0.25 * START_S, START_MAX_S)
+            return False
+        self._blocks = []
+        try:
+            imu_checks(x[:, :3], x[:, 3:6], x[:, 6], *self._args)
+        except OptinavError as exc:
+            self.error = exc
+            self._refuse()
+        return True
+
+    @staticmethod
+    def _tilted(x: np.ndarray) -> float:
+        """How far gravity turned in the body (rad) over the rows ``x`` (n, 7) (:func:`tilt_steps`)."""
+        return float(np.sum(tilt_steps(*tilt_sums(x[:, 3:6]), float(np.median(x[:, 6])))[1]))
+
+    def _refuse(self):
+        """Raise the refusal (anew each time: one error's traceback would grow with every sample)."""
+        exc = self.error
+        again = "feed the corrected samples to a new filter (this one refuses every later sample)"
+        raise type(exc)(
+            f"the stream's first {self.t:.3g} s: {exc.cause}", again if exc.remedy is None else f"{exc.remedy}; {again}"
+        ) from None

@@ -44,6 +44,7 @@ from optinav.attitude.branch import (
     weakest,
 )
 from optinav.attitude.checks import (
+    StartChecks,
     imu_checks,
     body_turned,
     check_mag,
@@ -1129,7 +1130,8 @@ class _Filter(StreamGaps):
     :func:`estimate` (default on; False: the method exactly as published). With polarization the heading's branch
     must be known before the first sample it corrects (the outputs cannot wait for the data to decide, as
     :func:`estimate` does): ``q0``, or ``heading0`` (rad, a turn about up from the levelled start:
-    :func:`initial_attitude` takes the AoP's heading within 90° of it); else that sample is refused."""
+    :func:`initial_attitude` takes the AoP's heading within 90° of it); else that sample is refused. ``checks``: the
+    input checks on the stream's first seconds, as :class:`~optinav.attitude.AttitudeFilter`'s."""
 
     METHOD = "qn"
 
@@ -1146,6 +1148,7 @@ class _Filter(StreamGaps):
         min_sun_separation: float = np.radians(10.0),
         input_stage: bool = True,
         heading0: float | None = None,
+        checks: bool = True,
         **options,
     ):
         self.dt = default_step(rate_hz, dt)
@@ -1153,7 +1156,7 @@ class _Filter(StreamGaps):
         self.options = _options(self.METHOD, options)
         self.input_stage = bool(input_stage)
         # the input stage: iframe's own streaming filter, fed the samples estimate() feeds it on the whole log
-        self._front = AttitudeFilter(dt=self.dt, frame=self.frame) if self.input_stage else None
+        self._front = AttitudeFilter(dt=self.dt, frame=self.frame, checks=False) if self.input_stage else None
         if self._front is not None:
             self._front._gap_check = False  # this filter judges the steps
         self._gaps_init()
@@ -1162,6 +1165,9 @@ class _Filter(StreamGaps):
         self._q0 = None if q0 is None else _as_q0(q0)
         self._heading0 = _as_heading0(heading0)
         self._other_root = False  # the start takes the AoP's other root (a log's decision: the other branch)
+        self._checks = (
+            StartChecks(self.frame, self.METHOD, self.options, self.input_stage, self._q0) if checks else None
+        )
         self.state = None
         self.counts = np.zeros(3, dtype=np.int64)
         self._skipped: dict[str, int] = {}
@@ -1192,6 +1198,7 @@ class _Filter(StreamGaps):
         if self._front is not None:
             self._front.reset()
         self._gaps_init()
+        self._checks = None if self._checks is None else self._checks.anew(self._q0)
 
     @property
     def pol_skipped(self) -> dict[str, int]:
@@ -1295,6 +1302,8 @@ class _Filter(StreamGaps):
         if self._gap_check and np.ndim(h) == 0 and h > self._gap_s:
             self._judge_gap(float(h))
         dts = _as_dt(h, 1)
+        if self._checks is not None and self._checks.sample(g[0], a[0], float(dts[0])):
+            self._checks = None  # the inputs passed: nothing is checked after
         pol = None if pol_sample is None else one_pol_sample(pol_sample, self.C_b_m, self.frame, self._pol_kw)
         self._check_branch(pol)
         g, a, _ = self._front_step(np.ascontiguousarray(g), np.ascontiguousarray(a), dts)
@@ -1344,6 +1353,8 @@ class _Filter(StreamGaps):
             return FilterRun(np.empty((0, 4)), rest, gyr_bias=bias, att_std=rows.copy() if mekf else None)
         dts = _as_dt(self._step(dt), n)
         self._chunk_gaps(dts)
+        if self._checks is not None and self._checks.chunk(g, a, dts):
+            self._checks = None  # the inputs passed: nothing is checked after
         self._check_branch(pol)
         g, a, front = self._front_step(g, a, dts)
         use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, n, self.frame)
@@ -1400,7 +1411,8 @@ def make_filter(method: str = "iframe", **kwargs):
     method : str
         One of :data:`METHODS`.
     **kwargs
-        Options as :func:`estimate` (``input_stage`` too: iframe has it built in and takes it as estimate() does).
+        Options as :func:`estimate` (``input_stage`` too: iframe has it built in and takes it as estimate() does;
+        ``checks``: its checks, judged once on the stream's first seconds: :class:`AttitudeFilter`).
 
     Returns
     -------

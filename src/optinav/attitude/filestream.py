@@ -833,7 +833,11 @@ class _BranchSegment:
         self.res, self.n, self.pol_row, self.mag_row = None, 0, None, None
         self.method = None if method is None else method[0]
         # from q0 nothing is decided, so nothing for gd/cg/qn/mekf to hold
-        self.tries = [] if method is None or q0 is not None else [make_filter(method[0], **method[1]) for _ in BRANCHES]
+        self.tries = (
+            []
+            if method is None or q0 is not None
+            else [make_filter(method[0], **method[1], checks=False) for _ in BRANCHES]
+        )
         for f, b in zip(self.tries, BRANCHES):
             f._decided(b)
             f._gap_check = False  # the file's gaps are cut by the caller

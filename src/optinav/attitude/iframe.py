@@ -75,7 +75,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from optinav.attitude import _iframe as _k
-from optinav.attitude.checks import MIN_GAP_S, gap_limit
+from optinav.attitude.checks import MIN_GAP_S, StartChecks, gap_limit
 from optinav.attitude.methods import IFRAME_DEFAULTS
 from optinav.core.rotations import DEFAULT_FRAME, frame_name
 from optinav.errors import OptinavError
@@ -714,6 +714,14 @@ class AttitudeFilter(StreamGaps):
     filter does. With polarization the heading's branch must be known before its first sample is used (a stream's
     outputs cannot wait for the data to decide, as the estimate does): ``q0``, ``heading0`` (rad, δ about up: the
     AoP's root nearest it) or a magnetometer sample at or before it; else that chunk is refused.
+
+    Input checks (``checks=True``): the stream's first seconds (20 s, more until gravity has turned 1 rad in the
+    body, at most 60 s: :class:`~optinav.attitude.checks.StartChecks`) are judged once by the checks
+    :func:`~optinav.attitude.estimate` runs (units, swapped triads or axes, clipping, gyro bias, frame warning, q0;
+    not the magnetometer): a refusal raises :class:`~optinav.errors.OptinavError` at the sample or chunk that
+    completes them, state unchanged, and again at every later one (:meth:`reset` keeps it); the outputs before it
+    are unjudged, a first chunk that long is judged before it runs. No cost after. ``checks=False``: none (a stream
+    already judged).
     """
 
     def __init__(
@@ -730,6 +738,7 @@ class AttitudeFilter(StreamGaps):
         min_dop: float = 0.05,
         min_sun_separation: float = math.radians(10.0),
         heading0: float | None = None,
+        checks: bool = True,
         **options,
     ):
         from optinav.attitude.estimators import _as_heading0, _as_q0, _hard_iron, _options, default_step
@@ -749,13 +758,15 @@ class AttitudeFilter(StreamGaps):
         self._fit = online_fit_state(mag_measured_before_fit) if online else None
         self._fit_step = _k.fitted_sample
         self._branch = q0 is not None or heading0 is not None  # the polarization's heading branch is fixed
-        self._state = _new_state(self.options, None if q0 is None else _as_q0(q0), _as_heading0(heading0) or 0.0)
+        q0 = None if q0 is None else _as_q0(q0)
+        self._state = _new_state(self.options, q0, _as_heading0(heading0) or 0.0)
         # views of the state's q and bias: a read copies them without slicing (the state is never replaced)
         self._q, self._bias = self._state[_k.S_Q : _k.S_Q + 4], self._state[_k.S_BIAS : _k.S_BIAS + 3]
         self._step = _k.step
         self._step6 = _k.step6
         self._step9 = _k.step9
         self._gaps_init()
+        self._checks = StartChecks(self.frame, "iframe", self.options, True, q0) if checks else None
 
     def reset(self, q0=None, heading0: float | None = None) -> None:
         """Start the estimate anew (after a time gap, or a new recording): the state as built. The options, the
@@ -773,8 +784,10 @@ class AttitudeFilter(StreamGaps):
         from optinav.attitude.estimators import _as_heading0, _as_q0
 
         self._branch = q0 is not None or heading0 is not None
-        self._state[:] = _new_state(self.options, None if q0 is None else _as_q0(q0), _as_heading0(heading0) or 0.0)
+        q0 = None if q0 is None else _as_q0(q0)
+        self._state[:] = _new_state(self.options, q0, _as_heading0(heading0) or 0.0)
         self._gaps_init()
+        self._checks = None if self._checks is None else self._checks.anew(q0)
 
     def _decided(self, other_root: bool) -> None:
         """Before the first sample, the heading branch a log's runs from either decided
@@ -796,9 +809,10 @@ class AttitudeFilter(StreamGaps):
             raise stream_branch_error()
 
     def update(self, gyr, acc, mag=None, dt=None, pol_sample=None) -> None:
-        """One sample; then read :attr:`q_b_n`, :attr:`rest`, … Only the lengths are checked in Python (speed); a
-        non-finite gyr, acc or dt raises :class:`~optinav.errors.OptinavError` and leaves the state unchanged. With
-        ``pol_sample`` the sample goes through :meth:`update_batch` (the same arithmetic, checked as a chunk).
+        """One sample; then read :attr:`q_b_n`, :attr:`rest`, … Per sample only the lengths are checked in Python
+        (speed), the stream's first seconds once as a whole (the class's input checks); a non-finite gyr, acc or dt
+        raises :class:`~optinav.errors.OptinavError` and leaves the state unchanged. With ``pol_sample`` the sample
+        goes through :meth:`update_batch` (the same arithmetic, checked as a chunk).
 
         Parameters
         ----------
@@ -831,6 +845,8 @@ class AttitudeFilter(StreamGaps):
             self._judge_gap(h)
         if len(gyr) != 3 or len(acc) != 3 or (mag is not None and len(mag) != 3):
             raise OptinavError("gyr, acc and mag must have 3 components each", "pass one sample (x, y, z)")
+        if self._checks is not None and self._checks.sample(gyr, acc, h):
+            self._checks = None  # the inputs passed: nothing is checked after
         if mag is not None and self._hi is not None:
             b = self._hi
             mag = (mag[0] - b[0], mag[1] - b[1], mag[2] - b[2])
@@ -853,7 +869,8 @@ class AttitudeFilter(StreamGaps):
         self._prev = h
 
     def update_batch(self, gyr, acc, mag=None, dt=None, pol=None) -> FilterRun:
-        """A chunk of samples, with per-sample outputs (the arithmetic of :meth:`update`).
+        """A chunk of samples, with per-sample outputs (the arithmetic of :meth:`update`); the stream's first
+        seconds are judged as the class says (input checks).
 
         Parameters
         ----------
@@ -896,6 +913,8 @@ class AttitudeFilter(StreamGaps):
             raise OptinavError("no time step for this chunk", "pass dt= or build with rate_hz")
         d = _as_dt(h, g.shape[0])
         self._chunk_gaps(d)
+        if self._checks is not None and self._checks.chunk(g, a, d):
+            self._checks = None  # the inputs passed: nothing is checked after
         pin = None
         if pol is not None:
             from optinav.attitude.measurement import pol_inputs
