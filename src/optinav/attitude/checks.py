@@ -4497,8 +4497,8 @@ START_BLOCK_ROWS = 4096
 class StartChecks:
     """:func:`imu_checks` run once on a stream's first samples (a streaming filter's; the arguments after ``dts``):
     :meth:`sample` and :meth:`chunk` gather them, judge them once they span :data:`START_S` s with gravity turned by
-    :data:`START_TURN` rad in the body (at most :data:`START_MAX_S` s) and then return True (the filter drops this
-    object: no cost after). A refusal is raised again for every later sample: a loop that skips refused samples
+    :data:`START_TURN` rad in the body (at most :data:`START_MAX_S` s; a still start's last START_S s) and then
+    return True (the filter drops this object: no cost after). A refusal is raised again for every later sample: a loop that skips refused samples
     cannot run on."""
 
     def __init__(self, frame: str, method: str, opts: dict, input_stage: bool = True, q0=None):
@@ -4506,6 +4506,7 @@ class StartChecks:
         self._rows: list[tuple] = []  # one sample's (gx, gy, gz, ax, ay, az, dt) each, since the last block
         self._blocks: list[np.ndarray] = []  # (n, 7) arrays: chunks, and the rows gathered before them
         self.n, self.t = 0, 0.0  # samples and seconds gathered
+        self._gone = 0.0  # seconds of them no longer kept (a still start's beyond START_S)
         self._due = START_S  # the time at which the samples are judged (next)
         self.error: OptinavError | None = None
 
@@ -4518,8 +4519,12 @@ class StartChecks:
         """One sample (gyr, acc (3,), step h s) before the filter uses it; True once the inputs passed."""
         if self.error is not None:
             self._refuse()
+        if type(g) is np.ndarray:  # numbers (a caller may reuse its arrays): tolist takes half the time of g[0], …
+            g = g.tolist()
+        if type(a) is np.ndarray:
+            a = a.tolist()
         rows = self._rows
-        rows.append((g[0], g[1], g[2], a[0], a[1], a[2], h))  # numbers: a caller may reuse its arrays
+        rows.append((*g, *a, h))
         self.t += h
         return (self.t >= self._due or len(rows) >= START_BLOCK_ROWS) and self._more()
 
@@ -4558,11 +4563,11 @@ class StartChecks:
         """Run the checks once gravity has turned enough in the body (else judge later; at the limits in any case)."""
         self._flush()
         x = self._blocks[0] if len(self._blocks) == 1 else np.concatenate(self._blocks)
-        self._blocks = [x]
         x = x[np.isfinite(x).all(axis=1)]  # a non-finite sample the filter refused
-        self.t = float(np.sum(x[:, 6]))
+        self.t = self._gone + float(np.sum(x[:, 6]))
         end = self.t >= START_MAX_S or self.n >= START_MAX_ROWS
         if x.shape[0] < 2 or not (end or self._tilted(x) >= START_TURN):
+            self._blocks = [self._recent(x)]
             self._due = min(self.t + 0.25 * START_S, START_MAX_S)
             return False
         self._blocks = []
@@ -4572,6 +4577,19 @@ class StartChecks:
             self.error = exc
             self._refuse()
         return True
+
+    def _recent(self, x: np.ndarray) -> np.ndarray:
+        """The rows of ``x`` (n, 7) in its last START_S s: a still start tells no more than that and costs the checks
+        time (BROAD 02 lies still for 42 s); q0's tilt is judged on the stream's first rows before they go."""
+        k = int(np.searchsorted(np.cumsum(x[::-1, 6]), START_S)) + 1
+        if k >= x.shape[0]:
+            return x
+        frame, method, opts, stage, q0 = self._args
+        if q0 is not None:
+            check_q0(q0, x[:, 3:6], frame)
+            self._args = (frame, method, opts, stage, None)
+        self._gone += float(np.sum(x[:-k, 6]))
+        return x[-k:]
 
     @staticmethod
     def _tilted(x: np.ndarray) -> float:
