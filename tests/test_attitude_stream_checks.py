@@ -150,8 +150,8 @@ def test_the_inputs_are_judged_once(cut, monkeypatch):
         if used is None and f._checks is None:
             used = i + 1
     assert len(calls) == 1 and C.START_S <= used * t.dt <= C.START_MAX_S
-    # a still start (here 25 s) is judged on its last START_S s and the motion after: 25 s, not all 30
-    assert calls[0] < used and calls[0] <= 1.25 * C.START_S / t.dt + 3
+    # a still start (here 25 s) is judged on its last START_S s, the turning that ended the wait in them: not all 30
+    assert calls[0] < used and calls[0] <= C.START_S / t.dt + 2
     f = AttitudeFilter(t.rate_hz, frame="enu")
     f.update_batch(g, a)  # one chunk: judged on its first seconds only, as sample by sample
     assert calls == [calls[0]] * 2 and f._checks is None

@@ -4571,6 +4571,8 @@ class StartChecks:
             self._due = min(self.t + 0.25 * START_S, START_MAX_S)
             return False
         self._blocks = []
+        if self._gone:  # a still start: its last START_S s, with the turning that ended the wait
+            x = self._recent(x)
         try:
             imu_checks(x[:, :3], x[:, 3:6], x[:, 6], *self._args)
         except OptinavError as exc:
