@@ -143,6 +143,8 @@ def _throughput(tr, quick: bool) -> list[dict]:
     batch = {
         "optinav iframe": lambda: estimate_q(g, a, tr.dt, frame="ENU", checks=False),
         "optinav iframe (with input checks)": lambda: estimate_q(g, a, tr.dt, frame="ENU"),
+        # the streaming filter's chunk, judged on its first seconds (checks.StartChecks)
+        "optinav AttitudeFilter.update_batch": lambda: AttitudeFilter(tr.rate_hz, frame="ENU").update_batch(g, a),
     }
     for meth in ("gd", "qn", "mekf"):  # the names of the accuracy rows: the default (input stage) and as published
         for stage, label in ((True, "+ input stage"), (False, "(as published)")):
