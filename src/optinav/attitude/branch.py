@@ -144,6 +144,16 @@ def stream_branch_error() -> OptinavError:
     )
 
 
+def q0_starts(q0, frame: str) -> tuple[np.ndarray, np.ndarray]:
+    """The two starts a run from ``q0`` (4,) [w, x, y, z] checks its branch from: q0, and q0 turned 180° about the
+    navigation frame's up."""
+    from optinav.attitude.measurement import up_vector
+    from optinav.core.rotations import quat_from_rotvec, quat_multiply
+
+    q0 = np.asarray(q0, float)
+    return q0, quat_multiply(quat_from_rotvec(np.pi * up_vector(frame)), q0)
+
+
 def field_sets_branch(mag, use) -> bool:
     """Whether the magnetometer ``mag`` (N, 3) has a field (three finite values) at or before the first usable
     polarization sample (``use`` (N,) bool; none usable: True): iframe then takes the AoP's root nearest the field's

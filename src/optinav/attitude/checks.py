@@ -236,12 +236,17 @@ class LostSamplesWarning(UserWarning):
     """Samples lost where the gyro turned: bridged, the heading carries the uncertainty of the turn across them."""
 
 
+def _turn_uncertainty(after: np.ndarray, before: np.ndarray, dts) -> np.ndarray:
+    """rad: |ω_after − ω_before|·dt/2, the difference of a step integrated at either end's rate."""
+    return _norm(after - before) * np.broadcast_to(dts, (after.shape[0],)) / 2.0
+
+
 def lost_turns(gyr: np.ndarray, dts: np.ndarray, prev=None) -> np.ndarray:
-    """rad per row: |ω_k − ω_{k−1}|·dt_k/2 of ``gyr`` (n, 3) rad/s and steps ``dts`` (n,) s, the difference of the
-    step integrated at either end's rate (row 0 against ``prev`` (3,), else 0)."""
+    """rad per row: :func:`_turn_uncertainty` of ``gyr`` (n, 3) rad/s over its steps ``dts`` (n,) s (row 0 against
+    ``prev`` (3,), else 0)."""
     g = np.asarray(gyr, float)
     before = np.concatenate([g[:1] if prev is None else np.asarray(prev, float).reshape(1, 3), g[:-1]])
-    return _norm(g - before) * np.broadcast_to(dts, (g.shape[0],)) / 2.0
+    return _turn_uncertainty(g, before, dts)
 
 
 def find_gaps(dts: np.ndarray) -> np.ndarray:
@@ -260,7 +265,7 @@ def uncertain_steps(dts: np.ndarray, gyr: np.ndarray) -> tuple[np.ndarray, np.nd
     step = float(np.median(dts[1:]))
     k = np.flatnonzero((dts > LOST_STEPS * step) & (dts <= gap_limit(step)))
     k = k[k > 0]
-    u = _norm(gyr[k] - gyr[k - 1]) * dts[k] / 2.0
+    u = _turn_uncertainty(gyr[k], gyr[k - 1], dts[k])
     return k[u > GAP_TURN], u[u > GAP_TURN]
 
 

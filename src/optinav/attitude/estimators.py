@@ -40,6 +40,7 @@ from optinav.attitude.branch import (
     MIN_HELD,
     HeldBranch,
     field_sets_branch,
+    q0_starts,
     stream_branch_error,
     weakest,
 )
@@ -1065,8 +1066,7 @@ def _branch_runs(gyr, acc, dts, pol, frame: str, opts: dict, q0=None) -> list[Fi
     """iframe online from either heading branch (:data:`~optinav.attitude.branch.BRANCHES`), with ``opts``; from
     ``q0`` (4,) and from q0 turned 180° about up where given."""
     if q0 is not None:
-        turned = quat_multiply(quat_from_rotvec(np.pi * up_vector(frame)), q0)
-        return [run_iframe(gyr, acc, dts, pol=pol, frame=frame, q0=q, **opts) for q in (q0, turned)]
+        return [run_iframe(gyr, acc, dts, pol=pol, frame=frame, q0=q, **opts) for q in q0_starts(q0, frame)]
     return [run_iframe(gyr, acc, dts, pol=pol, frame=frame, other_root=b, **opts) for b in BRANCHES]
 
 

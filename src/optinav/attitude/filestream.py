@@ -818,17 +818,14 @@ class _BranchSegment:
 
     def __init__(self, frame: str, opts: dict, method=None, n: int = 0, q0=None):
         from optinav.attitude import iframe as _if
-        from optinav.attitude.branch import BRANCHES, HeldBranch
+        from optinav.attitude.branch import BRANCHES, HeldBranch, q0_starts
         from optinav.attitude.estimators import make_filter
-        from optinav.attitude.measurement import up_vector
-        from optinav.core.rotations import quat_from_rotvec, quat_multiply
 
         self.frame, self.par = frame, _if._params(frame, opts)
         if q0 is None:
             self.states = [_if._new_state(opts, None, other_root=b) for b in BRANCHES]
         else:
-            turned = quat_multiply(quat_from_rotvec(np.pi * up_vector(frame)), q0)
-            self.states = [_if._new_state(opts, q) for q in (q0, turned)]
+            self.states = [_if._new_state(opts, q) for q in q0_starts(q0, frame)]
         self.last = q0  # the run from q0: the attitude before the next block's first row
         self.res, self.n, self.pol_row, self.mag_row = None, 0, None, None
         self.method = None if method is None else method[0]
