@@ -30,22 +30,27 @@ def multipos_report(res, out_dir, data=None, options=None) -> Path:
 
         o = options or FileOptions()
         units = res.units or {}
+        ours = options is None or (options.acc_unit is None and options.gyro_unit is None)
+        raw = (units.get("accelerometer_raw"), units.get("gyroscope_raw"))
+        if ours and any(raw):
+            # a log whose header declares other units is not the result's: the raw units below are the program's
+            # (as apply reads a log), and a stated unit overrides a declared one
+            from optinav.io.imu import iter_imu, reader_options
+
+            head = next(iter(iter_imu(data, chunk_rows=64, unit_defaults=raw, **reader_options(o))), None)
+            have = () if head is None else (head.acc_input_unit, head.gyro_input_unit)
+            if any(u and h and u != h for u, h in zip(raw, have)):
+                raise OptinavError(
+                    f"{Path(data).name} is in {', '.join(h for h in have if h)}, the result was calibrated from raw "
+                    f"{', '.join(u for u in raw if u)}: not its log",
+                    "pass the log the result was calibrated from with --data",
+                )
         # the log the result came from is in the raw units the calibration was made for (as apply reads it)
         if o.acc_unit is None and units.get("accelerometer_raw"):
             o = dataclasses.replace(o, acc_unit=units["accelerometer_raw"])
         if o.gyro_unit is None and units.get("gyroscope_raw"):
             o = dataclasses.replace(o, gyro_unit=units["gyroscope_raw"])
-        try:
-            d = read_session_file(data, o)
-        except OptinavError as exc:
-            ours = options is None or (options.acc_unit is None and options.gyro_unit is None)
-            if ours and " declares " in exc.cause and " was passed" in exc.cause:  # the file's own units
-                raw = ", ".join(f"{units[k]}" for k in ("accelerometer_raw", "gyroscope_raw") if units.get(k))
-                raise OptinavError(
-                    f"{exc.cause.split(' but ')[0]}, the result was calibrated from raw {raw}: not its log",
-                    "pass the log the result was calibrated from with --data",
-                ) from None
-            raise
+        d = read_session_file(data, o)
         _check_same_log(res, d, data)
         return cr.write_calibration_report(res, d.t, d.acc, d.gyr, out_dir)
     from optinav.reports.report import StudyResult, write_report
