@@ -1593,6 +1593,7 @@ class MagHeld:
         seg[0] += self.pending
         prev = np.vstack([np.full((1, 3), np.nan) if self.prev is None else self.prev[None, :], m[:-1]])
         eq = m == prev
+        cs = np.vstack([np.zeros((1, 2)), np.cumsum(seg, axis=0)])  # the runs' turn and time, from sums
         for c in range(4):
             same = eq.all(axis=1) if c == 3 else eq[:, c]
             other = np.zeros(len(idx), bool) if c == 3 else (~eq[:, [j for j in range(3) if j != c]]).any(axis=1)
@@ -1600,7 +1601,6 @@ class MagHeld:
             if not runs.size:
                 self.open[c] = None
                 continue
-            cs = np.vstack([np.zeros((1, 2)), np.cumsum(seg, axis=0)])
             co = np.r_[0, np.cumsum(other)]
             for a, b in runs:
                 turn, time = cs[b] - cs[a]

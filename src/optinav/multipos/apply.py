@@ -136,12 +136,15 @@ def _check_corrected_norm(acc, log, data_path, result_path, unitless: bool = Fal
     (each axis mid-scale at rest) under a calibration of signed ones (``res``) are named so."""
     from optinav.core.units import G_STANDARD
 
-    med = float(np.nanmedian(np.sqrt(np.einsum("ij,ij->i", acc, acc))))
+    def median_norm(a) -> float:
+        return float(np.nanmedian(np.sqrt(np.einsum("ij,ij->i", a, a))))
+
+    med = median_norm(acc)
     if not 0.5 * G_STANDARD <= med <= 2.0 * G_STANDARD and res is not None and log.acc_input_unit == "counts":
         raw = calibration_raw(log, "acc", res.units.get("accelerometer_raw"))
         for off in OFFSET_BINARY:
             a = res.correct_accel(raw - off)
-            if abs(float(np.nanmedian(np.sqrt(np.einsum("ij,ij->i", a, a)))) / G_STANDARD - 1.0) < 0.1:
+            if abs(median_norm(a) / G_STANDARD - 1.0) < 0.1:
                 raise OptinavError(
                     f"{Path(result_path).name} applied to {Path(data_path).name} gives |a| = {med:.4g} m/s^2, and "
                     f"{G_STANDARD:.4g} with {off:.0f} taken off every count: the data are offset-binary counts "

@@ -140,8 +140,7 @@ def _factor(unit, factor, counts_per_si=None, sensor: str = "", flag: str = "") 
     if unit is None and flag:
         # imu_tk's files and imucal's before 2.0 do not say what K maps from: taken as SI, a counts calibration's M
         # came out 208 and 965 on its diagonal (Kalibr then reads g as 0.047 m/s²) with exit 0
-        unit_flag = "--acc-unit" if sensor == "accelerometer" else "--gyro-unit"
-        return _unstated(sensor, unit_flag)
+        raise _unstated(sensor, "--acc-unit" if sensor == "accelerometer" else "--gyro-unit")
     if unit is None:
         return 1.0
     if unit != "counts":
@@ -160,8 +159,9 @@ def _factor(unit, factor, counts_per_si=None, sensor: str = "", flag: str = "") 
     return 1.0
 
 
-def _unstated(sensor: str, flag: str):
-    raise OptinavError(
+def _unstated(sensor: str, flag: str) -> OptinavError:
+    """The refusal of a Kalibr export of a ``sensor`` calibration that records no raw unit (``flag`` states it)."""
+    return OptinavError(
         f"the {sensor} calibration does not say the raw unit it was made from (imu_tk's files and imucal's before "
         "2.0 do not), and Kalibr's M is relative to SI units",
         f"state it with {flag} (counts: with {'--acc-lsb' if sensor == 'accelerometer' else '--gyro-lsb'} too)",
