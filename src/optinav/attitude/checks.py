@@ -1601,17 +1601,23 @@ class MagHeld:
             if not runs.size:
                 self.open[c] = None
                 continue
+            # all runs at once (a magnetometer slower than the IMU repeats its sample between updates: thousands
+            # of short runs a block, a Python loop over them was most of an estimate's input checks)
+            a, b = runs[:, 0], runs[:, 1]
+            turn, time = (cs[b] - cs[a]).T
             co = np.r_[0, np.cumsum(other)]
-            for a, b in runs:
-                turn, time = cs[b] - cs[a]
-                changed = co[b] > co[a]
-                start = self.n + int(idx[a]) - 1
-                if a == 0 and self.open[c] is not None:
-                    start, t0, s0, o0 = self.open[c]
-                    turn, time, changed = turn + t0, time + s0, changed or o0
-                if (c == 3 or changed) and turn > self.best[c][0]:
-                    self.best[c] = (float(turn), float(time), int(start), c, float(m[a, min(c, 2)]))
-                self.open[c] = (start, float(turn), float(time), bool(changed)) if b == len(idx) else None
+            changed = co[b] > co[a]
+            start = self.n + idx[a] - 1
+            if a[0] == 0 and self.open[c] is not None:  # the run left open by the block before goes on
+                s0, t0, ti0, o0 = self.open[c]
+                start[0], turn[0], time[0], changed[0] = s0, turn[0] + t0, time[0] + ti0, changed[0] or o0
+            ok = np.flatnonzero(changed) if c < 3 else np.arange(len(runs))
+            if ok.size:
+                j = ok[np.argmax(turn[ok])]  # the first of the longest turns, as a run-by-run pass kept it
+                if turn[j] > self.best[c][0]:
+                    self.best[c] = (float(turn[j]), float(time[j]), int(start[j]), c, float(m[a[j], min(c, 2)]))
+            last = (int(start[-1]), float(turn[-1]), float(time[-1]), bool(changed[-1]))
+            self.open[c] = last if b[-1] == len(idx) else None
         self.prev = m[-1].copy()
         self.pending = cum[-1] - cum[idx[-1]]
         self.n += n
