@@ -1115,6 +1115,59 @@ def test_every_filter_refuses_a_time_gap_and_reset_starts_anew_as_estimate_does(
         assert np.max(np.abs(np.vstack([first, rest]) - q_b)) < 1e-13, method
 
 
+def test_every_filter_refuses_lost_samples_in_a_turn_unless_bridged_as_estimate_does():
+    """A step that lost samples, shorter than a gap, was integrated by every streaming filter at the rate after it
+    with no word (estimate() and the CLI refuse it unless gaps are allowed): 0.2 s lost in BROAD 07's motion ran on
+    at 157° heading RMSE. Now refused where the turn across it is uncertain by more than GAP_TURN (|Δω|·dt/2), the
+    state unchanged; ``bridge_lost=True`` bridges it with a warning, to the last bit as ``estimate(allow_gaps=True)``
+    does, per sample and in chunks. A lost step across which the rate held is no uncertain turn: not refused."""
+    from optinav.attitude import METHODS as ALL_METHODS
+    from optinav.attitude.checks import GAP_TURN, LostSamplesWarning
+
+    d = synth(300, amp=1.5, seed=6, gyro_sigma=0.01, acc_sigma=0.1)
+    keep = np.r_[0:100, 140:300]  # rows 100-139 lost: a step of 0.41 s, short of a gap (0.5 s)
+    gyr, acc = d["gyr"][keep], d["acc"][keep]
+    dts = np.full(keep.size, d["dt"])
+    dts[100] = 41 * d["dt"]
+    assert np.linalg.norm(gyr[100] - gyr[99]) * dts[100] / 2 > 2 * GAP_TURN  # the premise: an uncertain turn
+    for method in ALL_METHODS:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            q_b = estimate(gyr, acc, dts, method=method, allow_gaps=True).q_b_n
+        for rate in (1.0 / d["dt"], None):  # the typical step: the filter's, or the step before
+            f = make_filter(method, rate_hz=rate)
+            for i in range(100):
+                f.update(gyr[i], acc[i], dt=dts[i])
+            q = f.q_b_n
+            with pytest.raises(OptinavError, match=r"step of 0.41 s lost samples .* uncertain by .*bridge_lost=True"):
+                f.update(gyr[100], acc[100], dt=dts[100])
+            assert np.array_equal(f.q_b_n, q), (method, rate)  # unchanged
+            f = make_filter(method, rate_hz=rate, bridge_lost=True)
+            out = []
+            with pytest.warns(LostSamplesWarning, match="1 step"):
+                for i in range(keep.size):
+                    f.update(gyr[i], acc[i], dt=dts[i])
+                    out.append(f.q_b_n)
+            assert np.max(np.abs(np.array(out) - q_b)) < 1e-13, (method, rate)
+        f = make_filter(method)
+        with pytest.raises(OptinavError, match="before row 100 of the chunk lost samples"):
+            f.update_batch(gyr, acc, dt=dts)
+        assert f.q_b_n is None
+        f.update_batch(gyr[:60], acc[:60], dt=dts[:60])
+        with pytest.raises(OptinavError, match="before row 40 of the chunk lost samples"):  # a later chunk's
+            f.update_batch(gyr[60:], acc[60:], dt=dts[60:])
+        f = make_filter(method, bridge_lost=True)
+        with pytest.warns(LostSamplesWarning):
+            q = np.vstack([f.update_batch(gyr[sl], acc[sl], dt=dts[sl]).q_b_n for sl in (np.s_[:100], np.s_[100:])])
+        assert np.max(np.abs(q - q_b)) < 1e-13, method
+        # the rate held across the lost samples: the turn is known, nothing said
+        held = gyr.copy()
+        held[99:101] = held[99]
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", LostSamplesWarning)
+            make_filter(method).update_batch(held, acc, dt=dts)
+
+
 def test_a_slow_steady_turn_about_a_horizontal_axis_is_no_gyro_bias_at_rest():
     """A turn of 0.12–0.5 rad/s about a horizontal axis, sampled at 1 kHz (0.12 rad/s at 285.7 Hz), varies the
     accelerometer by less than the rest threshold within one 64-sample bin, so the whole log read as a rest; its

@@ -71,7 +71,8 @@ S_STEP_S = 145
 S_P_T0, S_P_LAST, S_P_INIT, S_POL_USED = 163, 164, 165, 166
 S_P_USED_T = 167  # s of its last used sample
 S_P_OTHER = 168  # 1: its first used sample takes the AoP's other root, the heading branch not nearest δ
-STATE_SIZE = 169
+S_G_LAST = 169  # the last sample's gyr (3) as given: a stream's step that lost samples is judged against it
+STATE_SIZE = 172
 
 #: s, the rest detector reads gyro and accelerometer through a first-order low-pass of this time constant (a band
 #: of about 1/(4·REST_BAND_TAU) = 250 Hz): white noise of a given density (rad/s/√Hz, m/s²/√Hz) then deviates from
@@ -641,6 +642,9 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
     if st[S_INIT] == 0.0:
         _init(st, par, ax, ay, az)
     st[S_TIME] += h
+    st[S_G_LAST] = gx
+    st[S_G_LAST + 1] = gy
+    st[S_G_LAST + 2] = gz
     ux, uy, uz, nx, ny, nz, wx, wy, wz = _axes(par)
     # --- rest detection: deviation from first-order low-passes, in physical units -----------------------
     if st[S_RDT] != h:

@@ -1131,7 +1131,8 @@ class _Filter(StreamGaps):
     must be known before the first sample it corrects (the outputs cannot wait for the data to decide, as
     :func:`estimate` does): ``q0``, or ``heading0`` (rad, a turn about up from the levelled start:
     :func:`initial_attitude` takes the AoP's heading within 90° of it); else that sample is refused. ``checks``: the
-    input checks on the stream's first seconds, as :class:`~optinav.attitude.AttitudeFilter`'s."""
+    input checks on the stream's first seconds, as :class:`~optinav.attitude.AttitudeFilter`'s; ``bridge_lost`` as
+    its (steps that lost samples where the turn across them is uncertain bridged, warned, not refused)."""
 
     METHOD = "qn"
 
@@ -1149,6 +1150,7 @@ class _Filter(StreamGaps):
         input_stage: bool = True,
         heading0: float | None = None,
         checks: bool = True,
+        bridge_lost: bool = False,
         **options,
     ):
         self.dt = default_step(rate_hz, dt)
@@ -1159,6 +1161,8 @@ class _Filter(StreamGaps):
         self._front = AttitudeFilter(dt=self.dt, frame=self.frame, checks=False) if self.input_stage else None
         if self._front is not None:
             self._front._gap_check = False  # this filter judges the steps
+        self._bridge_lost = bool(bridge_lost)
+        self._g_last = None  # the gyro sample (3,) of the last update, rad/s
         self._gaps_init()
         self.C_b_m = as_c_b_m(C_b_m, self.frame)  # a bad mounting fails here, not at the first sample
         self._pol_kw = dict(min_sun_elevation=min_sun_elevation, min_dop=min_dop, min_sun_separation=min_sun_separation)
@@ -1197,6 +1201,7 @@ class _Filter(StreamGaps):
         self._heading0, self._other_root = _as_heading0(heading0), False
         if self._front is not None:
             self._front.reset()
+        self._g_last = None
         self._gaps_init()
         self._checks = None if self._checks is None else self._checks.anew(self._q0)
 
@@ -1282,6 +1287,9 @@ class _Filter(StreamGaps):
             r = self._front.update_batch(g, a, dt=dts if dts.size > 1 else float(dts[0]))  # (1,): one step for all
         return (*front_outputs(r, g, a, self.frame), r)
 
+    def _last_gyro(self) -> np.ndarray | None:
+        return self._g_last
+
     def _step(self, dt) -> float | np.ndarray:
         h = self.dt if dt is None else dt
         if h is None:
@@ -1299,8 +1307,9 @@ class _Filter(StreamGaps):
         g = as_float_array(gyr, "gyr", last_dims=(3,)).reshape(1, 3)
         a = as_float_array(acc, "acc", last_dims=(3,)).reshape(1, 3)
         h = self._step(dt)
-        if self._gap_check and np.ndim(h) == 0 and h > self._gap_s:
-            self._judge_gap(float(h))
+        g_in = g[0].copy()
+        if self._gap_check and np.ndim(h) == 0 and h > self._odd_s:
+            self._judge_step(float(h), g_in)
         dts = _as_dt(h, 1)
         if self._checks is not None and self._checks.sample(g[0], a[0], float(dts[0])):
             self._checks = None  # the inputs passed: nothing is checked after
@@ -1313,7 +1322,7 @@ class _Filter(StreamGaps):
             self.state = _init_state(self.METHOD, self._start(a[0], pol), self.options)
         _run(self.METHOD, self.options, self.state, g, a, dts, self._un, use, sn, cbm, c2, s2, min_d2, self._out,
              self._std, self.counts, self.input_stage)  # fmt: skip
-        self._prev = float(dts[-1])
+        self._prev, self._g_last = float(dts[-1]), g_in
         return self._out[0].copy()
 
     def update_batch(self, gyr, acc, dt=None, pol: PolarizationMeasurement | None = None, mag=None) -> FilterRun:
@@ -1352,7 +1361,8 @@ class _Filter(StreamGaps):
             rest = np.zeros(0, bool) if self.input_stage else None
             return FilterRun(np.empty((0, 4)), rest, gyr_bias=bias, att_std=rows.copy() if mekf else None)
         dts = _as_dt(self._step(dt), n)
-        self._chunk_gaps(dts)
+        self._chunk_gaps(dts, g)
+        g_in = g[-1].copy()
         if self._checks is not None and self._checks.chunk(g, a, dts):
             self._checks = None  # the inputs passed: nothing is checked after
         self._check_branch(pol)
@@ -1365,6 +1375,7 @@ class _Filter(StreamGaps):
         _run(self.METHOD, self.options, self.state, g, a, dts, self._un, use, sn, cbm, c2, s2, min_d2, out, std,
              self.counts, self.input_stage, own)  # fmt: skip
         self._out[0], self._std[0] = out[-1], std[-1]
+        self._g_last = g_in
         bias = None if front is None else front.gyr_bias
         if mekf:  # the stage's bias plus the MEKF's own state, as gyr_bias after each update()
             bias = own if bias is None else bias + own
