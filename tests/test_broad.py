@@ -3353,3 +3353,26 @@ def test_a_magnetometer_turned_half_a_turn_names_both_readings_its_turning_allow
     text = str(exc.value)
     assert "magnetometer x reads -x, magnetometer y reads -y" in text and "z reads -z" in text, text
     assert "field points down north of the magnetic equator" in text, text
+
+
+def test_a_magnet_attached_nearer_than_33s_runs_as_33_does():
+    """BROAD's attached-magnet trials put the magnet on the board 1-5 cm from the IMU for part of the recording
+    (32-36; 33, 2 cm, is here; the others are the independent evaluation's). 33's disturbance while its magnet is on
+    (the field less the Earth's by the optical reference, 40-99 s) scaled to a magnet 1 cm away (×8: a dipole falls
+    with the cube of the distance) must run as 33 does, not be refused as an uncalibrated magnetometer (a guard:
+    the checks that refuse offsets which come and go were tuned on 33 alone): 2.1° heading RMSE online, 1.8°
+    offline (VQF 9.6°, 1.7°; 33 itself 1.1°, 1.3°).
+    (Scaled with the mask closed over 99-133 s, the residual there ×8 too, it was refused: not a magnet.)"""
+    tr = load_broad(_present(BROAD / "33_disturbed_attached_magnet_2cm.hdf5"))
+    ok = np.all(np.isfinite(tr.q_ref), axis=1)
+    first = ok & (np.arange(ok.size) < int(20 * tr.rate_hz))  # the magnet is put on at 40 s
+    earth = np.mean(quat_rotate(tr.q_ref[first], tr.mag[first]), axis=0)
+    d = np.full_like(tr.mag, np.nan)
+    d[ok] = tr.mag[ok] - quat_rotate(quat_conjugate(tr.q_ref[ok]), np.broadcast_to(earth, (ok.sum(), 3)))
+    rows = np.arange(ok.size)
+    d = np.column_stack([np.interp(rows, rows[ok], d[ok, k]) for k in range(3)])
+    w = int(tr.rate_hz)  # on the board where the disturbance's 1-s mean is beyond 3 µT
+    on = np.convolve(np.linalg.norm(d, axis=1), np.ones(w) / w, mode="same") > 3.0
+    mag = tr.mag + 7.0 * d * on[:, None]  # ×8 in all
+    r = estimate(tr.gyr, tr.acc, 1.0 / tr.rate_hz, mag=mag, frame="ENU")
+    assert np.degrees(rmse(heading_error(r.q_b_n, tr.q_ref), tr.eval_mask)) < 4.0
