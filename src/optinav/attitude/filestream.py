@@ -1270,10 +1270,24 @@ def _offline_heading(
     v, hx = c["v"].start, c["hx"].start
     seen, qg0, mom, none = False, col(store.read(a, a + 1), "q")[0].copy(), np.zeros(10), np.zeros((0, 3))
 
-    def rows(s, e):
+    def read(s, e):
         r = store.read(s, e).copy()
+        return r, col(r, "flags")[:, 2].astype(bool), _if.norm_dip(col(r, "q"), col(r, "mag"), frame)
+
+    # the Earth's field: the medians of the norm and dip over the rows both passes used (iframe.earth_like)
+    norms, dips = [], []
+    for s in range(a, b, blk):
+        _, u, (n, d) = read(s, min(s + blk, b))
+        norms.append(n[u])
+        dips.append(d[u])
+    norms, dips = np.concatenate(norms), np.concatenate(dips)
+    ref = (np.median(norms), np.median(dips)) if norms.size else (np.nan, np.nan)
+
+    def rows(s, e):
+        r, used, (norm, dip) = read(s, e)
         db = np.ascontiguousarray(col(r, "bfw") - col(r, "bias"))
-        return r, db, _if.bias_gap(col(r, "q"), db, frame), col(r, "flags")[:, 2].astype(bool), col(r, "dts")[:, 0]
+        used &= _if.earth_like(norm, dip, ref, opts)
+        return r, db, _if.bias_gap(col(r, "q"), db, frame), used, col(r, "dts")[:, 0]
 
     def forward(sa2, first):
         nonlocal seen
@@ -1322,8 +1336,8 @@ def _offline_heading(
     backward(0.0, None)
     acc = np.zeros(2)
     for s in range(a, b, blk):
-        r = store.read(s, min(s + blk, b))
-        _k.azimuth_scatter(r[:, v + 2].copy(), r[:, v].copy(), col(r, "flags")[:, 2].astype(bool), acc)
+        r, _, _, used, _ = rows(s, min(s + blk, b))
+        _k.azimuth_scatter(r[:, v + 2].copy(), r[:, v].copy(), used, acc)
     sa2 = acc[0] / acc[1]
     normal = forward(sa2, False)
     backward(sa2, _if.bias_error(normal, _if.bias_prior(p_bias, mom), sa2, tau))

@@ -433,19 +433,23 @@ def run_iframe(
     # with polarization the heading is the fused passes' (each holds it to the AoP): smoothing the gyro-carried
     # heading's offset to the AoP's, as the field's, ran at 0.45° on BROAD's nine with synthesized AoP against
     # 0.37° online and 0.31° fused
-    if m.shape[0] and not held and opts["tau_mag_smooth"] > 0.0 and used.any():
+    earth = used
+    if m.shape[0] and used.any():  # the fields the heading takes: those with the Earth's norm and dip
+        nd = norm_dip(q, m, frame)
+        earth = used & earth_like(*nd, (np.median(nd[0][used]), np.median(nd[1][used])), opts)
+    if m.shape[0] and not held and opts["tau_mag_smooth"] > 0.0 and earth.any():
         tau = opts["tau_mag_smooth"]
         psi = gyro_heading(q, qg, frame)
         d = field_azimuth(q, m, frame, opts["declination"]) - psi  # in the attitude whose heading the gyro carries
         db = np.ascontiguousarray(fwd.gyr_bias - bias)
         sb = bias_gap(q, db, frame)
-        out = _smoothed_offset(d, used, sb, dts, tau, 0.0)
+        out = _smoothed_offset(d, earth, sb, dts, tau, 0.0)
         acc, mom = np.zeros(2), np.zeros(10)
-        _k.azimuth_scatter(d, out, used, acc)
+        _k.azimuth_scatter(d, out, earth, acc)
         _k.outer_sum(db, mom)
         pb = bias_prior(bwd.state[_k.S_P : _k.S_P + 9], mom)
         u = np.ascontiguousarray(body_up(q, frame))
-        out = psi + _smoothed_offset(d, used, sb, dts, tau, acc[0] / acc[1], u, pb)
+        out = psi + _smoothed_offset(d, earth, sb, dts, tau, acc[0] / acc[1], u, pb)
         q = heading_turned(q, out, frame)
     if lat != 0.0:
         from optinav.core.rotations import quat_from_rotvec, quat_multiply
@@ -469,6 +473,32 @@ def measured_used(r: FilterRun) -> np.ndarray:
     60 or 70 s, in its magnet: offline heading RMSE 18–21° with the samples either pass used, 1.6–2.3° with those
     both used)."""
     return r.mag_used if r.mag_offset is None else r.mag_used & ~r.offset_used
+
+
+#: the offline heading takes a field its passes used only within this many times the gates (``mag_norm_th``,
+#: ``mag_dip_th``) of the Earth's field as the recording shows it (:func:`earth_like`)
+EARTH_GATES = 2.0
+
+
+def norm_dip(q, mag, frame) -> tuple[np.ndarray, np.ndarray]:
+    """The field's norm (N,) [its unit] and dip (N,) rad (its angle above the horizontal: up positive) in the
+    attitudes ``q`` (N, 4) of the magnetometer ``mag`` (N, 3)."""
+    norm = np.linalg.norm(mag, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return norm, np.arcsin(np.clip(np.sum(body_up(q, frame) * mag, axis=1) / norm, -1.0, 1.0))
+
+
+def earth_like(norm, dip, ref, opts: dict) -> np.ndarray:
+    """The samples (N,) whose field (``norm``, ``dip`` of :func:`norm_dip`) is the Earth's — ``ref`` (norm, dip),
+    the medians over the samples both offline passes used — within :data:`EARTH_GATES` × the gates. A pass learns
+    a steady new field as its reference after ``mag_new_time`` (online the heading then goes on from it), and both
+    passes used a disturbed field so where the recording ends at rest beside a monitor or a steel desk: its
+    azimuth, taken for magnetic north by the offline heading, turned BROAD 02, 11 and 24 with such a field (+8, −5,
+    6 µT, ENU) in their final rest by 4.9-17.7° (online 0.7-1.4°, VQF offline 1.0-1.2°); 1.1, 0.6, 3.6° now."""
+    with np.errstate(invalid="ignore"):
+        return (np.abs(norm / ref[0] - 1.0) <= EARTH_GATES * opts["mag_norm_th"]) & (
+            np.abs(dip - ref[1]) <= EARTH_GATES * opts["mag_dip_th"]
+        )
 
 
 def field_azimuth(q, mag, frame, declination: float = 0.0) -> np.ndarray:
