@@ -3594,7 +3594,16 @@ def _learned(
 def _held_new(nums: np.ndarray, run: np.ndarray, h: float) -> bool:
     """Whether the bins ``nums`` (``h`` s each) hold a run of ``run`` (True bins) for 1.1 × :data:`MAG_NEW_S`: 10 %
     more, as the estimate's new-field candidate starts once the field has settled (a magnet put on takes 1-2 s)."""
-    return any((nums[e - 1] - nums[s] + 1) * h >= 1.1 * MAG_NEW_S for s, e in mask_runs(run))
+    return bool(_held_runs(nums, run, h))
+
+
+def _held_runs(nums: np.ndarray, run: np.ndarray, h: float) -> list[tuple[int, int]]:
+    """The runs of :func:`_held_new`: (first bin number, end bin number) of each."""
+    return [
+        (int(nums[s]), int(nums[e - 1]) + 1)
+        for s, e in mask_runs(run)
+        if (nums[e - 1] - nums[s] + 1) * h >= 1.1 * MAG_NEW_S
+    ]
 
 
 #: rad, offline the backward pass takes the field at the end for the Earth's; an offset that turns its horizontal
@@ -3640,17 +3649,134 @@ def end_turn(fields, h: float, b, up) -> float:
     return float(np.arctan2(np.linalg.norm(np.cross(h1, h0)), h1 @ h0))
 
 
-def _rest_off_earth(pieces, fields, h: float, field: float) -> bool:
-    """Whether after the windows judged (``pieces``) the field, bin by bin (``fields`` of :func:`bin_fields`, ``h``
-    s each), rests for 1.1 × :data:`MAG_NEW_S` with a norm off the Earth's (``field``) by twice :data:`MAG_OFFSET`:
+#: deg, a rest's field is another than the Earth's where its angle to the specific force is off the Earth's by more
+#: than this, the estimate's dip gate (``mag_dip_th``): the backward pass takes it for the Earth's all the same
+#: (:func:`_rest_off_earth`). The Earth's angle is the median over the 1-s groups within the windows about zero whose
+#: specific force is gravity (:data:`MAG_AXES_ACC_DEV`): within 1.6° of the start's rest on the nine trials (2-123
+#: groups), whose ends are within 0.3° of their starts. A rest less an offset nearer that angle by twice this
+#: carries the offset (:func:`_end_rest_with`). BROAD 16 with (-22.8, 7.0, 7.6) µT from 61 % (the end's norm 3 % off
+#: the Earth's): 22.8° off as measured, 6.6° less the last window's offset, offline 13.5° heading RMSE with exit 0
+#: (online 0.5°); none of the nine nor their 40-, 70- and 120-s cuts is refused by it
+MAG_REST_DIP_DEG = 5.0
+
+
+def _tilt_less(tilt, offset):
+    """:func:`mag_sums`' sums ``tilt`` with the field's less ``offset`` (None: as they are)."""
+    if offset is None:
+        return tilt
+    out = list(tilt)
+    out[2] = field_less_offset(np.asarray(out[2]), np.asarray(out[3]), offset)
+    return out
+
+
+class _Angles:
+    """The field's angle to the specific force (deg) per TILT_BIN bin of ``tilt`` (:func:`mag_sums` of the log;
+    split bins merged), and the Earth's (:attr:`earth`, None without a group to tell it): the median over the
+    :data:`MAG_AXES_S` groups within the windows about zero of ``pieces`` (``h`` s and ``rows`` samples a bin) whose
+    specific force is gravity (:data:`MAG_AXES_ACC_DEV`)."""
+
+    def __init__(self, tilt, pieces, h: float, rows: int):
+        self.bins, S = merge_bins(np.asarray(tilt[0]), np.column_stack([tilt[1], tilt[2], tilt[3], tilt[4]]))
+        self.acc, self.rows = S[:, :3], rows
+        with np.errstate(invalid="ignore", divide="ignore"):
+            self.field = S[:, 3:6] / S[:, 6:7]
+        per = max(1, int(round(MAG_PIECE_S / h)))
+        r0 = self.bins * TILT_BIN
+        inside = np.zeros(self.bins.shape[0], bool)
+        for k, b, _ in pieces:
+            if b is None:
+                inside |= (r0 >= k * rows) & (r0 + TILT_BIN <= (k + per) * rows)
+        g = max(1, int(round(MAG_AXES_S / (TILT_BIN * h / rows))))
+        u, inv = np.unique(self.bins[inside] // g, return_inverse=True)
+        G = np.zeros((u.size, 8))
+        np.add.at(G, inv, S[inside])
+        keep = (G[:, 6] > 0.5 * g * TILT_BIN) & (G[:, 7] < MAG_AXES_ACC_DEV * G_STANDARD * G[:, 6])
+        self.earth = float(np.median(self.angle(G[keep, :3], G[keep, 3:6]))) if keep.any() else None
+
+    @staticmethod
+    def angle(a: np.ndarray, m: np.ndarray) -> np.ndarray:
+        """deg, the angles between the rows of ``a`` and ``m``."""
+        return np.degrees(np.arctan2(_norm(np.cross(a, m)), np.sum(a * m, axis=1)))
+
+    def at(self, nums: np.ndarray, b=None) -> np.ndarray:
+        """The angle (deg) in the TILT_BIN bin holding the middle of each bin ``nums`` (of ``rows`` samples), the
+        field less ``b`` (3,; None: as measured)."""
+        i = np.clip(np.searchsorted(self.bins, (nums * self.rows + self.rows // 2) // TILT_BIN), 0, self.bins.size - 1)
+        return self.angle(self.acc[i], self.field[i] if b is None else self.field[i] - b)
+
+
+def _rest_off_earth(pieces, fields, h: float, field: float, angles: _Angles | None = None):
+    """(first bin, end bin, the field's median norm there, its angle to the specific force (deg) or None) of a rest
+    after the windows judged (``pieces``) in which the field, bin by bin (``fields`` of :func:`bin_fields`, ``h`` s
+    each), holds 1.1 × :data:`MAG_NEW_S` with a norm off the Earth's (``field``) by twice :data:`MAG_OFFSET`, or
+    with ``angles`` (:class:`_Angles`) an angle to the specific force off the Earth's by :data:`MAG_REST_DIP_DEG`:
     the backward pass takes it for the Earth's, whatever offset it carries (a window's offset fitted in fast
-    rotation can be 20 µT off, so the field is not told with it)."""
+    rotation can be 20 µT off, so the field is not told with it); None without one."""
     nums, m, w = fields
     sel = nums >= pieces[-1][0] + max(1, int(round(MAG_PIECE_S / h)))
     nm = _norm(m[sel])
     ok = np.isfinite(nm)
-    run = ((np.abs(nm - field) > 2.0 * MAG_OFFSET * field) & (_norm(w[sel]) < REST_GYR))[ok]
-    return _held_new(nums[sel][ok], run, h)
+    nums, nm = nums[sel][ok], nm[ok]
+    off = np.abs(nm - field) > 2.0 * MAG_OFFSET * field
+    ang = None
+    if angles is not None and angles.earth is not None:
+        ang = angles.at(nums)
+        with np.errstate(invalid="ignore"):
+            off |= np.abs(ang - angles.earth) > MAG_REST_DIP_DEG
+    got = _held_runs(nums, off & (_norm(w[sel][ok]) < REST_GYR), h)
+    if not got:
+        return None
+    a, e = got[0]
+    there = (nums >= a) & (nums < e)
+    return a, e, float(np.median(nm[there])), None if ang is None else float(np.nanmedian(ang[there]))
+
+
+def _end_rest_with(pieces, fields, h: float, b: np.ndarray, field: float, angles: _Angles | None) -> bool:
+    """Whether, after the windows judged (``pieces``; ``fields`` of :func:`bin_fields`, ``h`` s a bin), the last
+    about the offset ``b``, the body rests for 1.1 × :data:`MAG_NEW_S` in a field not told, bin by bin, to be the
+    Earth's as measured: its norm within twice :data:`MAG_OFFSET` of the Earth's (``field``) and, with ``angles``
+    (:class:`_Angles`), its angle to the specific force within :data:`MAG_REST_DIP_DEG`, and less b farther
+    from the Earth's by :data:`MAG_OFFSET` in norm or twice :data:`MAG_REST_DIP_DEG` in angle. A magnet taken off in the
+    rest leaves the Earth's field there (BROAD 02 with 4× 33's magnet to 8 s after its motion). One kept on:
+    BROAD 24 with (9.6, -25.0, 1.1) µT from 70 % of its motion, 4 % and 4.6° off the Earth's at the end, and 07
+    with (-19.1, 15.1, 11.0) µT from 30 %, its window's offset fitted 20 µT off in fast rotation, ran offline at 55°
+    and 17° with exit 0."""
+    nums, m, w = fields
+    sel = (nums >= pieces[-1][0] + max(1, int(round(MAG_PIECE_S / h)))) & np.all(np.isfinite(m), axis=1)
+    sel &= _norm(w) < REST_GYR
+    nums, m = nums[sel], m[sel]
+    dn, dn_b = np.abs(_norm(m) - field), np.abs(_norm(m - b) - field)
+    earth = dn <= 2.0 * MAG_OFFSET * field
+    told = dn + MAG_OFFSET * field <= dn_b
+    if angles is not None and angles.earth is not None:
+        da, da_b = np.abs(angles.at(nums) - angles.earth), np.abs(angles.at(nums, b) - angles.earth)
+        with np.errstate(invalid="ignore"):
+            earth &= da <= MAG_REST_DIP_DEG
+            told |= da + 2.0 * MAG_REST_DIP_DEG <= da_b
+    return _held_new(nums, ~(earth & told), h)
+
+
+def _rest_after_error(pieces, rows: int, h: float, fields, angles: _Angles | None) -> OptinavError | None:
+    """Offline, the refusal of a rest after the last window (``pieces`` of :func:`offset_pieces`, that one about
+    zero; ``rows`` samples and ``h`` s a bin) in a field other than the Earth's (:func:`_rest_off_earth` on
+    ``fields`` of :func:`bin_fields` and ``angles``, the windows about zero giving the Earth's): an offset put on
+    in motion that no window judged, the field with it learned at the end; None without one."""
+    if fields is None:
+        return None
+    zeros = [p for p in pieces if p[1] is None]
+    earth = float(np.median([f for _, _, f in zeros]))
+    rest = _rest_off_earth(pieces, fields, h, earth, angles)
+    if rest is None:
+        return None
+    a, e, norm, ang = rest
+    k = zeros[-1][0]
+    dip = "" if ang is None else f", at {ang:.0f}° to gravity against {angles.earth:.0f}°"
+    return _offset_changes(
+        f"the magnetic field turns in the body about zero from sample {k * rows} ({k * h:.1f} s), and from sample "
+        f"{a * rows} ({a * h:.1f} s) it rests for {(e - a) * h:.0f} s in another field than the Earth's (its norm "
+        f"{norm:.4g} against {earth:.4g}, its unit{dip}); offline the backward pass takes that field for the Earth's",
+        "drop --offline (online the field before it is the reference, the offset a disturbance to it), or ",
+    )
 
 
 def _offset_changes(cause: str, remedy: str = "") -> OptinavError:
@@ -3672,6 +3798,7 @@ def offset_change_error(
     offline: bool = False,
     fields: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
     up: np.ndarray | None = None,
+    tilt=None,
 ) -> OptinavError | None:
     """The refusal of a field whose hard-iron offset changes within the recording, from the windows of
     :func:`offset_pieces` (``rows`` samples and ``h`` s per bin) of the field less the ``offset`` the estimate
@@ -3685,19 +3812,29 @@ def offset_change_error(
     online the offset fitted from past samples, a mean of both fields, turned the heading by 40° RMS with exit 0,
     offline 21°; BROAD 33 (a magnet on the board from 40 to 99 s) with (30, 0, 0) µT added everywhere: 62°, 64°.
     ``up`` (3,): the specific force's direction over the last second (body axes); offline, an offset to the end
-    that turns the field there by under :data:`MAG_END_TURN` (:func:`end_turn`) is not refused."""
-    if not any(b is not None for _, b, _ in pieces):
+    that turns the field there by under :data:`MAG_END_TURN` (:func:`end_turn`) is not refused. ``tilt``
+    (:func:`mag_sums` of the log, the field as measured): offline, a rest at the end told with that offset by the
+    field's angle to gravity (:func:`_end_rest_with`) is refused too. Offline, with no window after the last one
+    about zero, a rest at the end in a field off the Earth's norm (:func:`_rest_off_earth`) is refused: the offset
+    came in motion too fast for its windows to be judged (BROAD 07 with (25, 10, -20) µT from 50 %: 26.3° heading
+    RMSE offline with exit 0, 1.7° online; 29 with 100 µT from 70 % of its motion: 28.7°)."""
+    if not pieces:
         return None
+    # the field's angle to gravity, offline, where the backward pass takes a rest's field for the Earth's
+    angles = _Angles(_tilt_less(tilt, offset), pieces, h, rows) if offline and tilt is not None else None
+    if not any(b is not None for _, b, _ in pieces):
+        return _rest_after_error(pieces, rows, h, fields, angles) if offline and offset is None else None
     field = _pieces_field(pieces)
     zero = np.zeros(3) if offset is None else np.asarray(offset, float)
     about = [(k, zero if b is None else zero + b) for k, b, _ in pieces]  # the point each window turns about
 
-    def error(i: int, j: int | None, why: str, remedy: str = "") -> OptinavError:
-        def at(i):
-            return f"about [{_vec(about[i][1])}] from sample {about[i][0] * rows} ({about[i][0] * h:.1f} s)"
+    def about_at(i):
+        return f"about [{_vec(about[i][1])}] from sample {about[i][0] * rows} ({about[i][0] * h:.1f} s)"
 
+    def error(i: int, j: int | None, why: str, remedy: str = "") -> OptinavError:
         return _offset_changes(
-            f"the magnetic field turns in the body {at(i)}{'' if j is None else ' and ' + at(j)}{why}", remedy
+            f"the magnetic field turns in the body {about_at(i)}{'' if j is None else ' and ' + about_at(j)}{why}",
+            remedy,
         )
 
     def apart(i: int, j: int, share: float) -> bool:
@@ -3732,13 +3869,21 @@ def offset_change_error(
             after >= 2
             if fields is None
             else after >= 1
-            and (_learned(pieces, fields, h, earth, at_end=True) or _rest_off_earth(pieces, fields, h, earth))
+            and (
+                _learned(pieces, fields, h, earth, at_end=True)
+                or _rest_off_earth(pieces, fields, h, earth) is not None
+                or _end_rest_with(pieces, fields, h, about[-1][1] - zero, earth, angles)
+            )
         )
     ):
         return error(
             last, last + 1, " to the end; offline the backward pass takes that field for the Earth's",
             "drop --offline (online the field before it is the reference, the offset a disturbance to it), or ",
         )  # fmt: skip
+    if offline and offset is None and last >= 0 == after:
+        err = _rest_after_error(pieces, rows, h, fields, angles)
+        if err is not None:
+            return err
     # no window about zero (the part before the offset does not turn enough to be judged), every one about a point
     # off it: the start, as measured, holds the Earth's field (the close test of offset_held_error) and a rest at
     # the end the field with the offset (BROAD 24 with (-20, 15, 40) µT from 60 s: 21.9° offline, 1.9° online). A

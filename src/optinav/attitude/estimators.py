@@ -851,7 +851,9 @@ def estimate(
             end_bins, end_acc, _, end_count, _ = mag_sums(acc[i:], mag[i:], i)
             up = end_up(end_bins, end_acc, end_count, step)
             pieces = offset_pieces(turns[0], less, turns[2])
-            err = offset_change_error(pieces, rows, turns[2], checked, offline, bin_fields(turns[0], less), up)
+            err = offset_change_error(
+                pieces, rows, turns[2], checked, offline, bin_fields(turns[0], less), up, tilt() if offline else None
+            )
             if err is None and mag_hard_iron is not None:  # subtracted from every row: it must be there at each
                 err = offset_held_error(*turns[:2], turns[2], rows, mag_hard_iron, offline)
             if err is None and checked is None and not online_fit:  # no offset taken out: it must turn about zero

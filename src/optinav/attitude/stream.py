@@ -372,8 +372,9 @@ class StreamChecks:
                 up = _c.end_up(msums[0], msums[1], msums[3], self.median_dt)
             pieces = _c.offset_pieces(bins, sums, h)
             err = _c.offset_change_error(
-                pieces, self._scale_rows, h, offset, self.offline, _c.bin_fields(bins, sums), up
-            )
+                pieces, self._scale_rows, h, offset, self.offline, _c.bin_fields(bins, sums), up,
+                msums if self.offline else None,
+            )  # fmt: skip
             # subtracted from every row (given, or fitted offline): it must be there at each
             subtracted = given if given is not None else self.fitted_hard_iron if self.offline else None
             if err is None and subtracted is not None:
