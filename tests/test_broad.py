@@ -3050,6 +3050,53 @@ def test_a_magnet_taken_off_in_the_rest_after_the_motion_runs_offline_one_kept_o
             assert rmse(np.degrees(heading_error(r.q_b_n, tr.q_ref)), tr.eval_mask) < 1.5
 
 
+def _at_about(msg: str) -> int:
+    """The sample at which a refusal says the offset changes (its remedy: cut the recording there)."""
+    return int(re.search(r"changes, at about sample (\d+)", msg).group(1))
+
+
+def test_a_magnet_put_on_partway_is_named_not_a_mirrored_frame_nor_other_axes(tmp_path, capsys):
+    """A magnet of about twice the field put on the board partway: BROAD 02 with (16.0, -81.8, 55.2) µT from 74 s was
+    refused as a mirrored frame, "likelier" a magnetometer in other axes (remapped as told it ran 12-174° off with
+    exit 0), and 16 with (-87.9, -0.3, 47.7) µT from 69 s as a magnetometer in other axes. Less each part's offset
+    (the field's windows turn about zero, then about the magnet's) it turns as the gyro says: refused as an offset
+    that changes within the recording, naming where (within 1 s), online and offline, in memory and streamed."""
+    import h5py
+
+    from optinav.cli.main import main
+
+    p16 = _present(BROAD / "16_undisturbed_fast_translation_B.hdf5")
+    for path, row, off in ((PATH, 21133, [16.02, -81.81, 55.23]), (p16, 19702, [-87.87, -0.32, 47.74])):
+        tr = load_broad(path)
+        mag = tr.mag.copy()
+        mag[row:] += off
+        for offline in (False, True):
+            with warnings.catch_warnings(), pytest.raises(OptinavError, match="changes within the recording") as e:
+                warnings.simplefilter("ignore")  # its norm reads as soft iron too
+                estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, offline=offline)
+            msg = str(e.value)
+            assert "mirrored" not in msg and "not the IMU's" not in msg, msg
+            first, then = _about(msg)[0], _about(msg)[-1]
+            assert np.linalg.norm(first) < 2.0 and np.linalg.norm(then - off) < 6.0, msg
+            if "at about sample" in msg:
+                assert abs(_at_about(msg) - row) * tr.dt < 1.0, msg
+            else:  # offline, said where the backward pass learns the magnet's field: online runs
+                assert offline and "drop --offline" in e.value.remedy, msg
+    f = tmp_path / "magnet.hdf5"  # BROAD 02's, streamed in blocks: refused alike
+    with h5py.File(PATH, "r") as src, h5py.File(f, "w") as dst:
+        for k in src:
+            dst[k] = src[k][()]
+        dst["imu_mag"][21133:] += [16.02, -81.81, 55.23]
+        dst.attrs.update(dict(src.attrs))
+    out = tmp_path / "o.csv"
+    assert (
+        main(["--quiet", "attitude", str(f), "--frame", "ENU", "--mag", "--chunk-rows", "7000", "--out", str(out)]) == 2
+    )
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "changes within the recording" in err and "mirrored" not in err and not out.exists(), err
+    assert abs(_at_about(err) - 21133) * 0.0035 < 1.0, err
+
+
 def test_offline_a_magnet_put_on_in_motion_is_refused_by_the_rest_after_it():
     """Offline the backward pass takes the field of the rest at the end for the Earth's. BROAD 07 with (25, 10, -20)
     µT from 50 % of the recording (in fast rotation: no window after it judged) ran offline at 26.3° heading RMSE

@@ -3779,13 +3779,17 @@ def _rest_after_error(pieces, rows: int, h: float, fields, angles: _Angles | Non
     )
 
 
-def _offset_changes(cause: str, remedy: str = "") -> OptinavError:
+class OffsetChanges(OptinavError):
+    """The refusal of a field whose hard-iron offset changes within the recording (:func:`_offset_changes`)."""
+
+
+def _offset_changes(cause: str, remedy: str = "", at: str = "") -> OptinavError:
     """The refusal of a field whose hard-iron offset changes within the recording, ``cause`` saying where it shows
-    (``remedy``: a first remedy before the usual ones)."""
-    return OptinavError(
+    (``remedy``: a first remedy before the usual ones; ``at``: where it changes, in words)."""
+    return OffsetChanges(
         f"{cause}: its hard-iron offset changes within the recording (a magnet put on or taken off the body?); the "
         "heading would be off by up to tens of degrees",
-        remedy + "cut the recording where the offset changes and run each part (optinav attitude --mag names the "
+        remedy + f"cut the recording where the offset changes{at} and run each part (optinav attitude --mag names the "
         "offset of a part that shows one), or drop --mag",
     )
 
@@ -3906,6 +3910,192 @@ def offset_change_error(
             "drop --offline (online the field at the start is the reference, the offset a disturbance to it), or ",
         )  # fmt: skip
     return None
+
+
+#: s, a change of the offset between two parts of the log is placed where the field, bin by bin (0.1 s), votes for
+#: each part's point on its side for at least this long: its norm less that point the Earth's, and nearer it than
+#: less the other's by :data:`MAG_OFFSET` of the field (:func:`offset_parts`). A mirrored field's windows turn about
+#: points it reflects to the same norm, so it votes for neither (BROAD 11 and 16 mirrored: none placed)
+MAG_CHANGE_VOTES_S = 1.0
+#: s, the bins this near a change of offset belong to neither part (a magnet put on takes 1-2 s)
+MAG_CHANGE_MARGIN_S = 2.0
+#: ... and each side's own bins may vote for the other side's point in this share at most: a point that explains how
+#: the field turns but not its norm there is no offset. BROAD 29 (a magnet beside it) with the field's y and z
+#: swapped: 40-s cuts whose one window turns "about" 72 µT voted 46-63 % for zero, the 400 mirrored, swapped and
+#: negated layouts of the nine and their cuts never placed a change; BROAD with 25-100 µT put on partway 0 %
+MAG_CHANGE_AGAINST = 0.1
+
+
+def _runs(pieces, h: float) -> list[list]:
+    """The windows of :func:`offset_pieces` (``h`` s a bin) in runs about one point: [first bin, end bin, point
+    (3,; zero for windows about zero), windows], a new run where a window's point is :data:`MAG_PIECE_APART` of the
+    field from the run's first."""
+    per = max(1, int(round(MAG_PIECE_S / h)))
+    field = _pieces_field(pieces)
+    runs: list[list] = []
+    for k, b, _ in pieces:
+        p = np.zeros(3) if b is None else np.asarray(b, float)
+        if runs and float(np.linalg.norm(p - runs[-1][2])) <= MAG_PIECE_APART * field:
+            runs[-1][1] = k + per
+            runs[-1][3].append(p)
+        else:
+            runs.append([k, k + per, p, [p]])
+    for r in runs:  # the run's point: its windows' median (about zero: zero)
+        r[2] = np.median(r[3], axis=0) if np.any(r[2]) else np.zeros(3)
+    return runs
+
+
+def offset_parts(pieces, fields, h: float, rows: int) -> list[tuple[int, int, np.ndarray]] | None:
+    """The parts of a log whose hard-iron offset changes: (first row, end row, offset (3,)) each, the rows within
+    :data:`MAG_CHANGE_MARGIN_S` of a change in none; None where the windows of :func:`offset_pieces` (``pieces``,
+    ``h`` s and ``rows`` samples a bin; ``fields`` of :func:`bin_fields`, the field as measured) show no change.
+    Runs of windows about one point (:func:`_runs`), and a part about zero before the first run or after the last
+    where the field votes for it; each change placed by the votes of the bins between (:data:`MAG_CHANGE_VOTES_S`),
+    and refused a place without them. A part about zero is needed (the Earth's field shown as measured)."""
+    if not pieces:
+        return None
+    runs = [(a, e, p) for a, e, p, _ in _runs(pieces, h)]
+    field = _pieces_field(pieces)
+    nums, m, _ = fields
+    ok = np.all(np.isfinite(m), axis=1)
+    nums, m = nums[ok], m[ok]
+    if not nums.size:
+        return None
+    least = max(1, int(round(MAG_CHANGE_VOTES_S / h)))
+
+    def votes(A, B):  # bins told with A, with B
+        dA, dB = np.abs(_norm(m - A) - field), np.abs(_norm(m - B) - field)
+        tol = MAG_OFFSET * field
+        return dA + tol < dB, dB + tol < dA
+
+    def place(A, B, lo: int, a1: int, b0: int, hi: int) -> int | None:
+        """The bin at which the field turns from A to B between bins a1 and b0, judged on the bins from lo to hi."""
+        va, vb = votes(A, B)
+        sel = (nums >= lo) & (nums < hi)
+        n, va, vb = nums[sel], va[sel], vb[sel]
+        cand = np.unique(np.clip(np.r_[n[(n >= a1) & (n <= b0)], a1, b0], a1, b0))
+        before = np.searchsorted(n, cand)  # bins before each candidate
+        ca, cb = np.r_[0, np.cumsum(va)], np.r_[0, np.cumsum(vb)]
+        score = ca[before] - cb[before]
+        i = int(np.argmax(score))
+        s = before[i]
+        if ca[s] < least or cb[-1] - cb[s] < least:
+            return None
+        # each side told with the other's point hardly ever (MAG_CHANGE_AGAINST)
+        inside_a, inside_b = n < cand[i], n >= cand[i]
+        against = max(vb[inside_a].mean() if inside_a.any() else 0.0, va[inside_b].mean() if inside_b.any() else 0.0)
+        if against > MAG_CHANGE_AGAINST:
+            return None
+        return int(cand[i])
+
+    zero = np.zeros(3)
+    lo, hi = int(nums[0]), int(nums[-1]) + 1
+    if np.any(runs[0][2]):  # a part about zero before the first run: the start as measured
+        at = place(zero, runs[0][2], lo, lo, runs[0][0], runs[0][1])
+        if at is not None and at > lo:
+            runs.insert(0, (lo, at, zero))
+    if np.any(runs[-1][2]):  # ... after the last
+        at = place(runs[-1][2], zero, runs[-1][0], runs[-1][1], hi, hi)
+        if at is not None and at < hi:
+            runs.append((at, hi, zero))
+    if len(runs) < 2 or all(np.any(p) for _, _, p in runs):
+        return None
+    cuts = []
+    for (a0, a1, A), (b0, b1, B) in zip(runs[:-1], runs[1:]):
+        at = place(A, B, a0, a1, b0, b1)
+        if at is None:
+            return None
+        cuts.append(at * rows)
+    margin = int(round(MAG_CHANGE_MARGIN_S / h)) * rows
+    edges = [-np.inf, *cuts, np.inf]
+    return [(edges[i] + (margin if i else 0), edges[i + 1] - (margin if i < len(cuts) else 0), runs[i][2])
+            for i in range(len(runs))]  # fmt: skip
+
+
+def _part_points(bins: np.ndarray, per: int, parts) -> np.ndarray:
+    """The offset (k, 3) of the part of :func:`offset_parts` that holds each bin of ``per`` rows wholly; NaN for a
+    bin across a change."""
+    r0 = np.asarray(bins) * per
+    out = np.full((r0.shape[0], 3), np.nan)
+    for a, e, p in parts:
+        out[(r0 >= a) & (r0 + per <= e)] = p
+    return out
+
+
+def tilt_less_parts(tilt, parts):
+    """:func:`mag_sums`' sums ``tilt`` with each bin's field less the offset of its part (:func:`offset_parts`), a
+    bin across a change left out (its sums zero)."""
+    bins, A, M, C, E = (np.asarray(x, float) if i else np.asarray(x) for i, x in enumerate(tilt))
+    pt = _part_points(bins, TILT_BIN, parts)
+    ok = np.isfinite(pt[:, 0])
+    return (bins, A * ok[:, None], np.where(ok[:, None], M - C[:, None] * np.nan_to_num(pt), 0.0), C * ok, E * ok)
+
+
+def rate_sums_less_parts(bins: np.ndarray, sums: np.ndarray, rows: int, parts) -> np.ndarray:
+    """:func:`field_rate_sums`' sums (k, 8) of ``rows``-sample bins with the field less the offset of each bin's
+    part (:func:`offset_parts`), the field of a bin across a change left out (its count zero)."""
+    pt = _part_points(bins, rows, parts)
+    ok = np.isfinite(pt[:, 0])
+    out = np.array(sums, dtype=float)
+    out[:, :3] = np.where(ok[:, None], out[:, :3] - out[:, 3:4] * np.nan_to_num(pt), 0.0)
+    out[:, 3] *= ok
+    return out
+
+
+def _parts_words(parts, rows: int, h: float) -> tuple[str, str]:
+    """The parts of :func:`offset_parts` in words: about which point from which sample (s) on; and where they
+    change (for the remedy)."""
+    margin = int(round(MAG_CHANGE_MARGIN_S / h)) * rows
+    cuts = [int(a - margin) for a, _, _ in parts[1:]]
+    said = [f"about [{_vec(p)}] from sample {k} ({k / rows * h:.1f} s)" for k, (_, _, p) in zip([0, *cuts], parts)]
+    at = ", ".join(f"sample {k} ({k / rows * h:.1f} s)" for k in cuts)
+    return ", ".join(said[:-1]) + " and " + said[-1], f", at about {at},"
+
+
+def parts_error(parts, rows: int, h: float, why: str) -> OptinavError:
+    """The refusal of a field whose offset changes between the parts of :func:`offset_parts` (``rows`` samples and
+    ``h`` s a bin), ``why``: what that explains."""
+    where, at = _parts_words(parts, rows, h)
+    return _offset_changes(f"the magnetic field turns in the body {where}{why}", at=at)
+
+
+def judge_mag_axes(tilt, turn_bins, turn_sums, h: float, gyro, dt: float, gyro_unit: str | None = None) -> None:
+    """:func:`check_mag_axes` on sums: ``tilt`` of :func:`mag_sums`, ``turn_bins``, ``turn_sums`` of
+    :func:`field_rate_sums` (``h`` s a bin; None: not judged) and ``gyro`` of :func:`gyro_sums` (None: not
+    judged); ``dt`` the median step (s)."""
+    warn_or_refuse_mag_axes(*mag_axes_hint(*tilt, dt))
+    if turn_sums is not None:
+        check_gyro_scale(turn_bins, turn_sums, h, gyro_unit)
+    if gyro is not None:
+        check_mag_turns(tilt[0], tilt[2], tilt[3], *gyro, dt)
+
+
+def axes_or_change(
+    refused: OptinavError, err, pieces, rows: int, h: float, turn_bins, turn_sums, tilt, gyro, dt: float, gyro_unit=None
+) -> OptinavError:
+    """What to raise where the magnetometer-axes checks refused the field (``refused``; :func:`check_mag_axes`)
+    and an offset that changes within the recording may be the cause: where the windows of the field as measured
+    (``pieces`` of :func:`offset_pieces` on ``turn_bins``, ``turn_sums`` of :func:`field_rate_sums`, ``rows``
+    samples and ``h`` s a bin) show parts about different points (:func:`offset_parts`) and the checks pass on the
+    field less each part's (:func:`judge_mag_axes`; ``tilt`` of :func:`mag_sums`, ``gyro`` of :func:`gyro_sums`,
+    the field as measured), the change: ``err`` where the offset checks named one, else :func:`parts_error`.
+    Otherwise ``refused``. BROAD 02 with 100 µT from 30 % was refused as a mirrored frame and 16 so as a
+    magnetometer in other axes; remapping its columns as told ran 12-174° off with exit 0."""
+    parts = offset_parts(pieces, bin_fields(turn_bins, turn_sums), h, rows)
+    if parts is None:
+        return refused
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            less = rate_sums_less_parts(turn_bins, turn_sums, rows, parts)
+            judge_mag_axes(tilt_less_parts(tilt, parts), turn_bins, less, h, gyro, dt, gyro_unit)
+        except OptinavError:
+            return refused
+    if isinstance(err, OffsetChanges):  # said where the estimate learns it (offline: "drop --offline")
+        return err
+    return parts_error(
+        parts, rows, h, "; less each part's offset it turns as the gyro says, which as measured it does not"
+    )
 
 
 #: rad, the steps between bins in which the body turns (mean rate over :data:`STILL_RATE`) must turn it by this much

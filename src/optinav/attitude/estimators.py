@@ -67,6 +67,8 @@ from optinav.attitude.checks import (
     mag_sums,
     zero_rows_missing,
     bin_fields,
+    axes_or_change,
+    gyro_sums,
     offset_change_error,
     offset_heading,
     offset_held_error,
@@ -854,13 +856,21 @@ def estimate(
             err = offset_change_error(
                 pieces, rows, turns[2], checked, offline, bin_fields(turns[0], less), up, tilt() if offline else None
             )
+            # the windows of the field as measured (those above where no offset is taken off)
+            raw_pieces = functools.cache(lambda p=pieces: p if checked is None else offset_pieces(*turns))
             if err is None and mag_hard_iron is not None:  # subtracted from every row: it must be there at each
                 err = offset_held_error(*turns[:2], turns[2], rows, mag_hard_iron, offline)
             if err is None and checked is None and not online_fit:  # no offset taken out: it must turn about zero
                 err = offset_unseen_error(pieces, *turns, rows, mag[:: mag_fit_stride(mag.shape[0])], offline, tilt)
             # the field the estimate uses: less the offset it subtracts. Before an offset the field turns about is
-            # refused: a mirrored frame or a magnetometer in other axes turns it about a point off zero too
-            check_mag_axes(acc, mag if checked is None else mag - checked, step, gyr)
+            # refused: a mirrored frame or a magnetometer in other axes turns it about a point off zero too, and
+            # one that changes within the recording (its parts' offsets then tell)
+            try:
+                check_mag_axes(acc, mag if checked is None else mag - checked, step, gyr)
+            except OptinavError as refused:
+                raise axes_or_change(
+                    refused, err, raw_pieces(), rows, turns[2], *turns[:2], tilt(), gyro_sums(gyr), step
+                ) from None
             if err is not None:
                 raise err
             measured = online_fit and turn is not None and measured_before_fit(turn)

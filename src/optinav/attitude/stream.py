@@ -362,6 +362,7 @@ class StreamChecks:
             given if given is not None else self.fitted_hard_iron if self.offline or self.hard_iron_judged else None
         )
         err = None  # raised after the magnetometer-axes check (a mirrored frame turns the field about other points)
+        raw_pieces = None  # the windows of the field as measured (offset_pieces), once if at all
         # the tilt bins' sums (bins, specific force, field, counts, …) over the whole log, joined once
         msums = self._tilt_sums() if self._mag_sums else None
         if self._mag and self._scale_sums:  # one offset for the whole recording, or none, must hold in every part
@@ -377,6 +378,7 @@ class StreamChecks:
             )  # fmt: skip
             # subtracted from every row (given, or fitted offline): it must be there at each
             subtracted = given if given is not None else self.fitted_hard_iron if self.offline else None
+            raw_pieces = pieces if offset is None else None
             if err is None and subtracted is not None:
                 err = _c.offset_held_error(bins, raw, h, self._scale_rows, subtracted, self.offline)
             if err is None and offset is None:  # no offset taken out: the field must turn about zero
@@ -387,12 +389,17 @@ class StreamChecks:
         if msums is not None:  # in the order of check_mag_axes, on the field less the offset the estimate subtracts
             sums = list(msums)
             sums[2] = _c.field_less_offset(sums[2], sums[3], offset)
-            _c.warn_or_refuse_mag_axes(*_c.mag_axes_hint(*sums, self.median_dt))
-            if self._scale_sums:
-                _c.check_gyro_scale(*self._turn_sums(offset), self.gyro_unit)
-            if self._gyr_sums:
-                gyro = [np.concatenate(x) for x in zip(*self._gyr_sums)]
-                _c.check_mag_turns(sums[0], sums[2], sums[3], *gyro, self.median_dt)
+            gyro = [np.concatenate(x) for x in zip(*self._gyr_sums)] if self._gyr_sums else None
+            turn = self._turn_sums(offset) if self._scale_sums else (None, None, None)
+            try:
+                _c.judge_mag_axes(sums, turn[0], turn[1], turn[2], gyro, self.median_dt, self.gyro_unit)
+            except OptinavError as refused:
+                if not self._scale_sums:
+                    raise
+                bins, raw, h = self._turn_sums()
+                raw_pieces = _c.offset_pieces(bins, raw, h) if raw_pieces is None else raw_pieces
+                raise _c.axes_or_change(refused, err, raw_pieces, self._scale_rows, h, bins, raw, msums, gyro,
+                                        self.median_dt, self.gyro_unit) from None  # fmt: skip
         elif self._witness and err is None:
             err = _c.witness_error(*(np.concatenate(x) for x in zip(*self._witness)), self._scale_rows * self.median_dt,
                                    self.gyro_unit)  # fmt: skip
