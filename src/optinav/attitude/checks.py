@@ -4059,6 +4059,31 @@ def parts_error(parts, rows: int, h: float, why: str) -> OptinavError:
     return _offset_changes(f"the magnetic field turns in the body {where}{why}", at=at)
 
 
+#: where the one offset of :func:`one_offset_error` came from, in its words
+FITTED, GIVEN = "fitted over the whole recording", "given"
+
+
+def one_offset_error(pieces, turn_bins, turn_sums, h: float, rows: int, offset, how: str) -> OptinavError | None:
+    """The refusal of one ``offset`` (3,, the field's unit) for the whole recording (``how``: :data:`FITTED` or
+    :data:`GIVEN`; subtracted from every row, or fitted online from past samples) where the field as measured shows
+    parts about different points (:func:`offset_parts` of ``pieces``, the windows of :func:`offset_pieces` on
+    ``turn_bins``, ``turn_sums`` of :func:`field_rate_sums`, ``h`` s and ``rows`` samples a bin): no one offset holds
+    in all of them. BROAD 11 with (21.3, 12.4, 4.2) µT from 70 % of the recording: the whole recording's fit, (9.3,
+    5.0, 1.7) µT, a mix of none and the offset, about which the windows after the change turn too little to be
+    judged; offline it was subtracted and ran at 11.8° heading RMSE with exit 0, online its fit from past samples
+    never passed and the refusal named it to give (--mag-hard-iron=9.34,4.97,1.675), which ran at 40°. None
+    without such parts."""
+    parts = offset_parts(pieces, bin_fields(turn_bins, turn_sums), h, rows)
+    if parts is None:
+        return None
+    where, at = _parts_words(parts, rows, h)
+    return _offset_changes(
+        f"the magnetic field turns in the body {where}, and no one offset holds in every part (not the "
+        f"[{_vec(offset)}] {how})",
+        at=at,
+    )
+
+
 def judge_mag_axes(tilt, turn_bins, turn_sums, h: float, gyro, dt: float, gyro_unit: str | None = None) -> None:
     """:func:`check_mag_axes` on sums: ``tilt`` of :func:`mag_sums`, ``turn_bins``, ``turn_sums`` of
     :func:`field_rate_sums` (``h`` s a bin; None: not judged) and ``gyro`` of :func:`gyro_sums` (None: not

@@ -67,9 +67,12 @@ from optinav.attitude.checks import (
     mag_sums,
     zero_rows_missing,
     bin_fields,
+    FITTED,
+    GIVEN,
     axes_or_change,
     gyro_sums,
     offset_change_error,
+    one_offset_error,
     offset_heading,
     offset_held_error,
     offset_tolerated,
@@ -860,6 +863,8 @@ def estimate(
             raw_pieces = functools.cache(lambda p=pieces: p if checked is None else offset_pieces(*turns))
             if err is None and mag_hard_iron is not None:  # subtracted from every row: it must be there at each
                 err = offset_held_error(*turns[:2], turns[2], rows, mag_hard_iron, offline)
+                if err is None:
+                    err = one_offset_error(raw_pieces(), *turns, rows, mag_hard_iron, FITTED if fitted else GIVEN)
             if err is None and checked is None and not online_fit:  # no offset taken out: it must turn about zero
                 err = offset_unseen_error(pieces, *turns, rows, mag[:: mag_fit_stride(mag.shape[0])], offline, tilt)
             # the field the estimate uses: less the offset it subtracts. Before an offset the field turns about is
@@ -890,8 +895,11 @@ def estimate(
         fit_dt[gaps] = np.median(dts)
         raw, (mag, fs) = mag, hard_iron_online(mag, fit_dt, online_fit_state(measured), gyr=gyr)
         mag_hard_iron, hi_from = online_fit_result(fs)
-        if hi_from is None:
-            raise online_fit_failed(raw[:: mag_fit_stride(raw.shape[0])])
+        if hi_from is None:  # no one offset where the field's parts show a change, else the fit's
+            changed = None
+            if checks and checked is not None:
+                changed = one_offset_error(raw_pieces(), *turns, rows, checked, FITTED)
+            raise changed or online_fit_failed(raw[:: mag_fit_stride(raw.shape[0])])
         held = online_fit_held(fs)
         if held is not None and held[1] >= opts["mag_new_time"]:  # as long as a new field takes to be believed
             raise online_offset_changed(*held)

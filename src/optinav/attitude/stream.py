@@ -137,7 +137,14 @@ class StreamChecks:
 
     def online_fit_failed(self) -> OptinavError:
         """The refusal of an online estimate whose offset fitted from past samples never passed its gates
-        (:func:`checks.online_fit_failed` on the rows of pass 1)."""
+        (:func:`checks.online_fit_failed` on the rows of pass 1), or, where the field's parts show that offset
+        changes, that change (:func:`checks.one_offset_error`, as estimate())."""
+        if self._scale_sums and self.fitted_hard_iron is not None:
+            bins, raw, h = self._turn_sums()
+            pieces = _c.offset_pieces(bins, raw, h)
+            changed = _c.one_offset_error(pieces, bins, raw, h, self._scale_rows, self.fitted_hard_iron, _c.FITTED)
+            if changed is not None:
+                return changed
         return _c.online_fit_failed(np.concatenate(self._mag))
 
     def hard_iron(self, online: bool = False) -> np.ndarray | None:
@@ -381,6 +388,10 @@ class StreamChecks:
             raw_pieces = pieces if offset is None else None
             if err is None and subtracted is not None:
                 err = _c.offset_held_error(bins, raw, h, self._scale_rows, subtracted, self.offline)
+                if err is None:
+                    raw_pieces = _c.offset_pieces(bins, raw, h) if raw_pieces is None else raw_pieces
+                    how = _c.GIVEN if given is not None else _c.FITTED
+                    err = _c.one_offset_error(raw_pieces, bins, raw, h, self._scale_rows, subtracted, how)
             if err is None and offset is None:  # no offset taken out: the field must turn about zero
                 err = _c.offset_unseen_error(
                     pieces, bins, sums, h, self._scale_rows, np.concatenate(self._mag), self.offline,
