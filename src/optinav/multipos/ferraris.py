@@ -434,6 +434,15 @@ def _mean_cov(x: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
     return cov / n * (1 + rho) / (1 - rho), rho, np.diag(cov)
 
 
+def white_noise(stats) -> np.ndarray:
+    """Per-sample variance (3,) [unit²] of white noise that an integral of the samples adds up as the stills show
+    it: the median over the stills of their per-sample variance, times (1 + ρ)/(1 − ρ) for the median lag-1
+    correlation ρ (AR(1): a low-passed noise's integral grows as its low-frequency level, not its sample variance).
+    ``stats`` the :func:`_mean_cov` of each still."""
+    rho = float(np.median([c[1] for c in stats]))
+    return np.median([c[2] for c in stats], axis=0) * (1 + rho) / (1 - rho)
+
+
 def _step(sections) -> np.ndarray:
     """The readings' resolution (3,) over ``sections`` of (N_i, 3) samples: the smallest step any of them takes per
     axis (:func:`_resolution`; 0 where none moves)."""
@@ -510,9 +519,7 @@ def _std(p: _Inputs, rng, n_draws: int) -> dict:
             else [np.var(x, axis=0) if len(x) > 1 else ci[2] for x, ci in zip(p.own[1], c)]
         )
         covs.append(np.array([ci[0] + np.diag(quantized_mean_var(v, step)) for ci, v in zip(c, rvar)]))
-        rho = float(np.median([ci[1] for ci in c]))
-        var = np.median([ci[2] for ci in c], axis=0)  # per-sample white noise, pooled over the poses
-        noise.append(var * (1 + rho) / (1 - rho))
+        noise.append(white_noise(c))
         quant.append(quantized_mean_var(np.median(rvar, axis=0), step))
     # Σ dt² per rotation: the variance of an integral of white noise
     h2 = np.array([(x.shape[0] / p.rate**2) if h is None else float(h @ h) for x, h in zip(p.rot[1], p.steps)])

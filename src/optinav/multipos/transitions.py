@@ -67,12 +67,17 @@ class Transitions:
             J[3 * k : 3 * k + 3, 3 * i + 3 : 3 * i + 6] = -np.eye(3)
         return J
 
-    def rotations(self, K, b) -> np.ndarray:
-        """Quaternions q_k of C_{b(k+1)}^{b(k)} (T, 4) for the given K, b."""
-        w = (self.raw - b) @ np.linalg.inv(K).T  # b: (3,) or one per row (the "local" bias)
+    def _attitudes(self, K, b) -> np.ndarray:
+        """Quaternion per row (rows, 4) of the body against the first row's, the rates K⁻¹(raw − b) integrated
+        (b: (3,) or one per row, the "local" bias); the increments joining two transitions are zero."""
+        w = (self.raw - b) @ np.linalg.inv(K).T
         dth = 0.5 * (w[:-1] + w[1:]) * self.h[:, None]
         dth[self.gap] = 0.0
-        q = attitude_update(np.array([1.0, 0.0, 0.0, 0.0]), dth, coning=self.coning, dt=self.h)
+        return attitude_update(np.array([1.0, 0.0, 0.0, 0.0]), dth, coning=self.coning, dt=self.h)
+
+    def rotations(self, K, b) -> np.ndarray:
+        """Quaternions q_k of C_{b(k+1)}^{b(k)} (T, 4) for the given K, b."""
+        q = self._attitudes(K, b)
         return quat_multiply(quat_conjugate(q[self.starts]), q[self.ends])
 
     def residuals(self, K, b) -> np.ndarray:
@@ -93,14 +98,14 @@ class Transitions:
             out[j] = float(np.sum(r * r))
         return out
 
+    def path(self, K, b) -> np.ndarray:
+        """Quaternion per row (rows, 4) of the body at that row relative to the body at its transition's start."""
+        q = self._attitudes(K, b)
+        return quat_multiply(quat_conjugate(q[self.starts][self.seg]), q)
+
     def gravity_path(self, K, b) -> np.ndarray:
         """Unit specific-force direction per row (body frame, (rows, 3)): u_k carried along the turn."""
-        w = (self.raw - b) @ np.linalg.inv(K).T
-        dth = 0.5 * (w[:-1] + w[1:]) * self.h[:, None]
-        dth[self.gap] = 0.0
-        q = attitude_update(np.array([1.0, 0.0, 0.0, 0.0]), dth, coning=self.coning, dt=self.h)
-        q_rel = quat_multiply(quat_conjugate(q[self.starts][self.seg]), q)
-        return quat_rotate(quat_conjugate(q_rel), self.u0[self.seg])
+        return quat_rotate(quat_conjugate(self.path(K, b)), self.u0[self.seg])
 
     def turn_angles(self, b) -> tuple[np.ndarray, np.ndarray]:
         """Per transition: the raw rotation perpendicular to the first pose's gravity direction
