@@ -230,10 +230,10 @@ def add_calibration_options(a) -> None:
     a.add_argument(
         "--held-misalignment",
         type=NON_NEGATIVE,
-        default=0.005,
         metavar="RAD",
-        help="1-sigma of the misalignments the diagonal model holds at 0 (default 0.005 rad, a MEMS "
-        "datasheet value); their model error enters the scale and bias std",
+        help="1-sigma of the misalignments the diagonal model holds at 0 (default 0.0071 rad: six MEMS "
+        "misalignments of 0.005 rad each, two in each held term); their model error enters the scale and "
+        "bias std and the gyro's",
     )
     a.add_argument(
         "--gyro-bias-instability",

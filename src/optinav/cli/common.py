@@ -361,10 +361,12 @@ def options_from_args(cls, args, **given):
 
 def file_options(args):
     """:class:`optinav.multipos.calibrate.FileOptions` of ``optinav calibrate accel`` / ``batch calibrate accel``:
-    ``--rest T0 T1`` as a tuple, and ``--height`` (None when not given) only with ``--latitude``."""
+    ``--rest T0 T1`` as a tuple, ``--height`` (None when not given) only with ``--latitude``, and
+    ``--held-misalignment`` not given as the library's default."""
     from optinav.multipos.calibrate import FileOptions
 
     height, rest = getattr(args, "height_m", None), getattr(args, "rest", None)
+    held = getattr(args, "held_misalignment", None)
     if height is not None and getattr(args, "lat_deg", None) is None:
         raise OptinavError(
             "--height without --latitude has no effect (it sets the normal gravity's height)",
@@ -375,6 +377,7 @@ def file_options(args):
         args,
         height_m=0.0 if height is None else height,
         rest=None if rest is None else tuple(float(v) for v in rest),
+        held_misalignment=FileOptions.held_misalignment if held is None else held,  # (the library's default)
     )
 
 
