@@ -75,7 +75,7 @@ def _check_rows_against_truth(rows, truth, units_dir):
         r = by[unit]
         assert r["status"] == "ok" and r["error"] == "", r["error"]
         assert r["acc_unit"] == s.acc_unit and r["n_poses"] == 18 and r["system"] == "multipos"
-        assert r["converged"] is True and r["gates_passed"] is True and r["n_gates"] == 5
+        assert r["converged"] is True and r["gates_passed"] is True and r["n_gates"] == 6
         # the lower triangle of K is the gauge of norm observation: unobservable, null in the table
         assert set(r["unobservable"].split("; ")) == {"acc_K_yx", "acc_K_zx", "acc_K_zy"}
         assert r["acc_K_yx"] is None and r["acc_K_yx_std"] is None

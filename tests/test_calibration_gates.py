@@ -1083,3 +1083,29 @@ def test_a_clean_six_pose_session_is_not_refused_for_a_scale_sign(seed, dwell):
     flipped = positive_scales(theta)
     assert np.all(flipped[:3] > 0)
     np.testing.assert_allclose(model.norm_residuals(flipped, m, 9.8), model.norm_residuals(theta, m, 9.8), rtol=1e-12)
+
+
+@pytest.mark.parametrize("seed", [4, 7, 8, 17])
+def test_gyro_turn_residuals_judge_the_held_misalignment_prior(seed):
+    """The six axis poses twice: the accelerometer holds its misalignments at 0 and their shear of the poses shows in
+    the gyro's turns. Units whose held terms are large for the simulated MTi-1 (seed 4: RMS 0.0105 rad, 7: 0.0075,
+    8: K_xz −20 mrad) pass at the default prior (0.0071), each gyro K element within 3 std of the truth (at 0.005
+    seed 8's was 3.9 std off; the turns' excess over their prediction now widens the std, χ² scaling) and the
+    frame's gate logged. Seed 7 with the prior understated (0.0005 rad) left turns missing by 5.3 mrad RMS, 16× what
+    the noise predicts, and K 4.3 std off with exit 0: refused, naming --held-misalignment and what the turns imply
+    (0.0076 rad; its held terms' RMS is 0.0075). Seed 17's two 180° turns about z were taken for clipped (their misfit
+    is the shear) and left out, and the nine left could not show it: at 0.0005 K 10.6 std off with exit 0; they are
+    kept now, and the understated prior refused."""
+    s = simulate(np.vstack([SCHEMES["six"]] * 2), dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=seed)
+    kw = dict(acc_unit="counts", gyro_unit="counts", g=s.gravity)
+    if seed in (7, 17):
+        with pytest.raises(OptinavError, match=r"by more than their 1σ 0.0005 rad \(the turns imply about 0.0") as e:
+            calibrate(s.t, s.acc, s.gyr, held_misalignment=0.0005, **kw)
+        assert "--held-misalignment" in e.value.remedy and "\n" not in str(e.value)
+    r = calibrate(s.t, s.acc, s.gyr, **kw)
+    truth = s.gyr_K @ model.upper_triangular_form(s.acc_K)[1].T
+    assert np.all(np.abs(r.gyroscope["K"] - truth) < 3.0 * np.asarray(r.gyroscope["K_std"]))
+    assert r.accelerometer["held"] == ["K_xy", "K_xz", "K_yz"] and r.accelerometer["held_std_rad"] == 0.0071
+    (g,) = [g for g in r.gates if "accelerometer frame's directions" in g["name"]]
+    assert g["passed"] and r.gyroscope["residual_noise_ratio"] > 0 and r.gyroscope["std_widening"] >= 1.0
+    assert r.excluded["flat_topped_turns"] == 0

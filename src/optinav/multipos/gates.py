@@ -7,7 +7,10 @@ After each fit (:mod:`optinav.multipos.calibrate`):
   misalignments are judged observable only from ≥ 9 distinct directions that determine them;
 * **convergence** — the optimizer reports success (an evaluation limit hit is a failure);
 * **residual** — the pose residual RMS is within :data:`MAX_RESIDUAL_G` × g: a larger one means motion in a
-  "static" interval or data that no ellipsoid fits (the within-pose noise already inflates the std);
+  "static" interval or data that no ellipsoid fits (the within-pose noise already inflates the std); the gyro's
+  turn residuals within :data:`MAX_GYRO_RESIDUAL_RAD`, and in the accelerometer frame's directions within what the
+  noise and the frame's error (held misalignments at their --held-misalignment 1σ) predict
+  (:func:`optinav.multipos.calibrate._gyro_frame_gate`, p = 10⁻⁴); an excess below that widens the gyro std;
 * **plausibility** — diagonal scales within ×:data:`SCALE_FACTOR` of the nominal scale of the declared unit
   (×:data:`ACC_SCALE_FACTOR` for an accelerometer in m/s², g or mg: beyond it raw counts were read as that unit;
   ×:data:`GYRO_SCALE_FACTOR` for a gyroscope in deg/s or rad/s: beyond it the time base is wrong),
