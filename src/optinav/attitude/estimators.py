@@ -873,8 +873,9 @@ def estimate(
             try:
                 check_mag_axes(acc, mag if checked is None else mag - checked, step, gyr)
             except OptinavError as refused:
+                up = field_rate_sums(gyr, acc, rows)  # the specific force the lag check judges the yaw rate about
                 raise axes_or_change(
-                    refused, err, raw_pieces(), rows, turns[2], *turns[:2], tilt(), gyro_sums(gyr), step
+                    refused, err, raw_pieces(), rows, turns[2], *turns[:2], tilt(), gyro_sums(gyr), step, None, up
                 ) from None
             if err is not None:
                 raise err

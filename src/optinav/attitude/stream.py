@@ -57,6 +57,7 @@ class StreamChecks:
         self._witness: list[tuple] = []  # the same sums of a magnetometer the estimate does not use (add_witness)
         self._still: list[tuple] = []  # per TILT_BIN rows: gyro, accelerometer and their squares (the rest bias)
         self._lag_sums: list[tuple] = []  # specific force and gyro sums per _scale_rows rows (the gyro's clock)
+        self._up: tuple[np.ndarray, np.ndarray] | None = None  # those joined after pass 1 (the field's lag)
         # rows whose turn across their step is uncertain beyond GAP_TURN (a gap where they lost samples), the
         # uncertainty, and the block's last gyro row
         self._turn_rows: list[np.ndarray] = []
@@ -258,6 +259,7 @@ class StreamChecks:
         _c.check_norms(med_a, med_g, self.peak, self.gyro_unit, share, low)
         lag = [np.concatenate(x) for x in zip(*self._lag_sums)]
         self._lag_sums = []
+        self._up = tuple(lag) if lag else None  # kept: the field's lag judges the yaw rate about them (finish_second)
         _c.check_gyro_lag(*lag, self._scale_rows * self.median_dt)
         # pass 2 gathers the unit window and, per axis and sign reaching 1 rad/s, the samples at the extreme
         self._win: list[list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = [[] for _ in self.windows]
@@ -403,14 +405,14 @@ class StreamChecks:
             gyro = [np.concatenate(x) for x in zip(*self._gyr_sums)] if self._gyr_sums else None
             turn = self._turn_sums(offset) if self._scale_sums else (None, None, None)
             try:
-                _c.judge_mag_axes(sums, turn[0], turn[1], turn[2], gyro, self.median_dt, self.gyro_unit)
+                _c.judge_mag_axes(sums, turn[0], turn[1], turn[2], gyro, self.median_dt, self.gyro_unit, self._up)
             except OptinavError as refused:
                 if not self._scale_sums:
                     raise
                 bins, raw, h = self._turn_sums()
                 raw_pieces = _c.offset_pieces(bins, raw, h) if raw_pieces is None else raw_pieces
                 raise _c.axes_or_change(refused, err, raw_pieces, self._scale_rows, h, bins, raw, msums, gyro,
-                                        self.median_dt, self.gyro_unit) from None  # fmt: skip
+                                        self.median_dt, self.gyro_unit, self._up) from None  # fmt: skip
         elif self._witness and err is None:
             err = _c.witness_error(*(np.concatenate(x) for x in zip(*self._witness)), self._scale_rows * self.median_dt,
                                    self.gyro_unit)  # fmt: skip
