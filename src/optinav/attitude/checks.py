@@ -1575,6 +1575,7 @@ class MagHeld:
         # per column (axis x, y, z; 3 the whole sample): the open run (first row, turn, time, other axes changed)
         self.open: list = [None] * 4
         self.best = [(0.0, 0.0, 0, c, 0.0) for c in range(4)]  # per column: turn, time, first row, column, value
+        self.rows = self.repeats = 0  # rows with a field, and those repeating the one before (:meth:`hold_s`)
 
     def add(self, gyr: np.ndarray, mag: np.ndarray, dts: np.ndarray) -> None:
         """One block: gyr (n, 3) rad/s, mag (n, 3) any unit (NaN rows: no sample), dts (n,) or (1,) s."""
@@ -1593,6 +1594,8 @@ class MagHeld:
         seg[0] += self.pending
         prev = np.vstack([np.full((1, 3), np.nan) if self.prev is None else self.prev[None, :], m[:-1]])
         eq = m == prev
+        self.rows += len(idx)
+        self.repeats += int(np.count_nonzero(eq.all(axis=1)))
         cs = np.vstack([np.zeros((1, 2)), np.cumsum(seg, axis=0)])  # the runs' turn and time, from sums
         for c in range(4):
             same = eq.all(axis=1) if c == 3 else eq[:, c]
@@ -1621,6 +1624,14 @@ class MagHeld:
         self.prev = m[-1].copy()
         self.pending = cum[-1] - cum[idx[-1]]
         self.n += n
+
+    def hold_s(self, dt: float) -> float:
+        """How late (s) the field is on average on the rows it fills by repeating a reading between its updates (a
+        magnetometer slower than the IMU held on its rows, ``dt`` s a row): each reading held L rows is (L − 1)/2
+        rows old on average; 0 where each row with a field has a reading of its own."""
+        if self.rows <= self.repeats:
+            return 0.0
+        return 0.5 * (self.rows / (self.rows - self.repeats) - 1.0) * dt
 
     def check(self) -> None:
         # the whole sample first: an axis's run of a stuck sample began with the axis's own repeats before it
@@ -3226,11 +3237,13 @@ def check_mag_lag(
     sums: np.ndarray,
     h: float,
     up: tuple[np.ndarray, np.ndarray] | None = None,
+    held_s: float = 0.0,
 ) -> None:
     """Refuse a magnetometer late or early against the IMU (:func:`mag_lag` of ``bins``, ``sums``, ``h``, ``up``)
     by :data:`MAG_LAG_MIN` or more, or from :data:`MAG_LAG_NEAR` by a lag that turns its heading by
-    :data:`MAG_LAG_HEADING` in the turns. Not judged where the field turns too little or the gyro explains too little
-    of it at any lag."""
+    :data:`MAG_LAG_HEADING` in the turns; ``held_s``: how late the field is for being held on the rows between its
+    updates (:meth:`MagHeld.hold_s`), whose remedy is its rows, not its stamps. Not judged where the field turns too
+    little or the gyro explains too little of it at any lag."""
     got = mag_lag(bins, sums, h, up)
     if got is None:
         return
@@ -3241,13 +3254,22 @@ def check_mag_lag(
     if abs(lag) < MAG_LAG_MIN and (abs(lag) < MAG_LAG_NEAR or heading < MAG_LAG_HEADING):
         return
     late, x = ("late", "earlier") if lag > 0 else ("early", "later")
+    # a reading held on the rows until the next is late on them by the time it is held: its rows, not its stamps
+    held = lag > 0 and held_s >= 0.25 * lag
+    what = "field is {} s {} on the IMU's rows" if held else "time stamps are {} s {} against the IMU's"
     cause = (
-        f"the magnetometer's time stamps are {_secs(abs(lag))} s {late} against the IMU's: its field turns in the body "
-        f"as the gyro says when moved {_secs(abs(lag))} s {x} ({e:.0%} of its turning explained; {e0:.0%} as stamped)"
+        f"the magnetometer's {what.format(_secs(abs(lag)), late)}: its field turns in the body as the "
+        f"gyro says when moved {_secs(abs(lag))} s {x} ({e:.0%} of its turning explained; {e0:.0%} as stamped)"
     )
     if abs(lag) < MAG_LAG_MIN:
         cause += f", which turns its heading by the yaw rate × {_secs(abs(lag))} s: {heading:.2g}° RMS in the turns"
     shift = f"{LAG_REMEDY} (its t {'−' if lag > 0 else '+'} {_secs(abs(lag))} s)"
+    if held:
+        rest = lag - held_s
+        cause += f"; it repeats each reading on the rows until its next, which leaves it {_secs(held_s)} s late"
+        shift = "give the magnetometer's readings only on the rows of its updates (NaN on the rows between)"
+        if rest >= MAG_LAG_MIN or rest >= MAG_LAG_NEAR and np.degrees(yaw * rest) >= MAG_LAG_HEADING:
+            shift += f", and align its time stamps with the IMU's (its t − {_secs(rest)} s)"
     raise OptinavError(cause, shift)
 
 
@@ -3334,12 +3356,13 @@ def check_mag_axes(
     dt: float,
     gyr: np.ndarray | None = None,
     gyro_unit: str | None = None,
+    held_s: float = 0.0,
 ) -> None:
     """Refuse (or warn about) a magnetometer whose axes are not the IMU's (:func:`mag_axes_hint`; a swapped layout
     gave a heading 77° off with exit 0), and with ``gyr`` (rad/s) one whose field does not turn or turns
     against the gyro (:func:`check_mag_turns`), a gyro that reads far less than the field turns
-    (:func:`gyro_scale_error`; ``gyro_unit`` as declared) or a field late against the gyro (:func:`check_mag_lag`);
-    ``dt`` the median step (s)."""
+    (:func:`gyro_scale_error`; ``gyro_unit`` as declared) or a field late against the gyro (:func:`check_mag_lag`,
+    ``held_s`` as it takes it); ``dt`` the median step (s)."""
     b, as_, ms, c, dev = mag_sums(acc, mag)
     warn_or_refuse_mag_axes(*mag_axes_hint(b, as_, ms, c, dev, dt))
     if gyr is not None:
@@ -3347,7 +3370,7 @@ def check_mag_axes(
         # magnetometer in other axes (those leave the turning unexplained), and a mirrored frame was blamed on one
         rows = scale_bin_rows(dt)
         up = field_rate_sums(gyr, acc, rows)
-        check_gyro_scale(*field_rate_sums(gyr, mag, rows), rows * dt, gyro_unit, up)
+        check_gyro_scale(*field_rate_sums(gyr, mag, rows), rows * dt, gyro_unit, up, held_s)
         check_mag_turns(b, ms, c, *gyro_sums(gyr), dt)
 
 
@@ -3357,9 +3380,10 @@ def check_gyro_scale(
     h: float,
     gyro_unit: str | None = None,
     up: tuple[np.ndarray, np.ndarray] | None = None,
+    held_s: float = 0.0,
 ) -> None:
     """Raise :func:`gyro_scale_error` of :func:`mag_gyro_scale` (``bins``, ``sums`` of :func:`field_rate_sums`,
-    ``h`` s a bin) when it has one, then :func:`check_mag_lag` (``up`` as it takes it)."""
+    ``h`` s a bin) when it has one, then :func:`check_mag_lag` (``up``, ``held_s`` as it takes them)."""
     s, explained, turned = got = mag_gyro_scale(bins, sums, h)
     err = gyro_scale_error(*got, gyro_unit)
     if err is not None and -MAG_SCALE_FAR <= s < 0:
@@ -3369,7 +3393,7 @@ def check_gyro_scale(
         if other > explained and remedy == LAG_REMEDY:
             # moved in time it turns with the gyro better (BROAD 07 at 10 Hz 0.15 s late): its lag to the
             # millisecond, with the shift that undoes it, where check_mag_lag refuses it
-            check_mag_lag(bins, sums, h, up)
+            check_mag_lag(bins, sums, h, up, held_s)
         if 1.0 - explained > WITNESS_MIRROR_SHARE * (1.0 - other):
             alt = f"it turns with the gyro {how} ({other:.0%} explained)"
             if other > explained:
@@ -3377,7 +3401,7 @@ def check_gyro_scale(
             raise OptinavError(f"{err.cause}; or {alt}", f"{err.remedy}; or {remedy}")
     if err is not None:
         raise err
-    check_mag_lag(bins, sums, h, up)
+    check_mag_lag(bins, sums, h, up, held_s)
 
 
 def warn_or_refuse_mag_axes(hint: str, refuse: bool) -> None:
@@ -4206,14 +4230,14 @@ def one_offset_error(pieces, turn_bins, turn_sums, h: float, rows: int, offset, 
 
 
 def judge_mag_axes(
-    tilt, turn_bins, turn_sums, h: float, gyro, dt: float, gyro_unit: str | None = None, up=None
+    tilt, turn_bins, turn_sums, h: float, gyro, dt: float, gyro_unit: str | None = None, up=None, held_s: float = 0.0
 ) -> None:
     """:func:`check_mag_axes` on sums: ``tilt`` of :func:`mag_sums`, ``turn_bins``, ``turn_sums`` of
     :func:`field_rate_sums` (``h`` s a bin; None: not judged) and ``gyro`` of :func:`gyro_sums` (None: not
-    judged); ``dt`` the median step (s); ``up`` as :func:`check_gyro_scale` takes it."""
+    judged); ``dt`` the median step (s); ``up``, ``held_s`` as :func:`check_gyro_scale` takes them."""
     warn_or_refuse_mag_axes(*mag_axes_hint(*tilt, dt))
     if turn_sums is not None:
-        check_gyro_scale(turn_bins, turn_sums, h, gyro_unit, up)
+        check_gyro_scale(turn_bins, turn_sums, h, gyro_unit, up, held_s)
     if gyro is not None:
         check_mag_turns(tilt[0], tilt[2], tilt[3], *gyro, dt)
 
@@ -4231,6 +4255,7 @@ def axes_or_change(
     dt: float,
     gyro_unit=None,
     up=None,
+    held_s: float = 0.0,
 ) -> OptinavError:
     """What to raise where the magnetometer-axes checks refused the field (``refused``; :func:`check_mag_axes`)
     and an offset that changes within the recording may be the cause: where the windows of the field as measured
@@ -4247,7 +4272,7 @@ def axes_or_change(
         warnings.simplefilter("ignore")
         try:
             less = rate_sums_less_parts(turn_bins, turn_sums, rows, parts)
-            judge_mag_axes(tilt_less_parts(tilt, parts), turn_bins, less, h, gyro, dt, gyro_unit, up)
+            judge_mag_axes(tilt_less_parts(tilt, parts), turn_bins, less, h, gyro, dt, gyro_unit, up, held_s)
         except OptinavError:
             return refused
     if isinstance(err, OffsetChanges):  # said where the estimate learns it (offline: "drop --offline")

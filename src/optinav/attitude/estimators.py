@@ -870,12 +870,13 @@ def estimate(
             # the field the estimate uses: less the offset it subtracts. Before an offset the field turns about is
             # refused: a mirrored frame or a magnetometer in other axes turns it about a point off zero too, and
             # one that changes within the recording (its parts' offsets then tell)
+            hold = held.hold_s(step)  # how late the field is for being held on the rows between readings
             try:
-                check_mag_axes(acc, mag if checked is None else mag - checked, step, gyr)
+                check_mag_axes(acc, mag if checked is None else mag - checked, step, gyr, held_s=hold)
             except OptinavError as refused:
                 up = field_rate_sums(gyr, acc, rows)  # the specific force the lag check judges the yaw rate about
                 raise axes_or_change(
-                    refused, err, raw_pieces(), rows, turns[2], *turns[:2], tilt(), gyro_sums(gyr), step, None, up
+                    refused, err, raw_pieces(), rows, turns[2], *turns[:2], tilt(), gyro_sums(gyr), step, None, up, hold
                 ) from None
             if err is not None:
                 raise err

@@ -404,15 +404,16 @@ class StreamChecks:
             sums[2] = _c.field_less_offset(sums[2], sums[3], offset)
             gyro = [np.concatenate(x) for x in zip(*self._gyr_sums)] if self._gyr_sums else None
             turn = self._turn_sums(offset) if self._scale_sums else (None, None, None)
+            held = self._mag_held.hold_s(self.median_dt)
             try:
-                _c.judge_mag_axes(sums, turn[0], turn[1], turn[2], gyro, self.median_dt, self.gyro_unit, self._up)
+                _c.judge_mag_axes(sums, turn[0], turn[1], turn[2], gyro, self.median_dt, self.gyro_unit, self._up, held)
             except OptinavError as refused:
                 if not self._scale_sums:
                     raise
                 bins, raw, h = self._turn_sums()
                 raw_pieces = _c.offset_pieces(bins, raw, h) if raw_pieces is None else raw_pieces
                 raise _c.axes_or_change(refused, err, raw_pieces, self._scale_rows, h, bins, raw, msums, gyro,
-                                        self.median_dt, self.gyro_unit, self._up) from None  # fmt: skip
+                                        self.median_dt, self.gyro_unit, self._up, held) from None  # fmt: skip
         elif self._witness and err is None:
             err = _c.witness_error(*(np.concatenate(x) for x in zip(*self._witness)), self._scale_rows * self.median_dt,
                                    self.gyro_unit)  # fmt: skip
