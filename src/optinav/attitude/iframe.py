@@ -724,14 +724,18 @@ class StreamGaps:
         before = self._last_gyro()
         if LOST_STEPS * typical < h < math.inf and before is not None:  # (an infinite step: a non-finite sample)
             g = np.asarray(gyr, dtype=float).reshape(1, 3)
-            self._lost(h, float(lost_turns(g, np.array([h]), before)[0]), typical)
+            self._lost(h, lost_turns(g, np.array([h]), before), typical)
 
-    def _lost(self, h: float, turn: float, typical: float, row: int | None = None) -> None:
-        if turn <= GAP_TURN:
+    def _lost(self, h: float, turns: np.ndarray, typical: float, row: int | None = None) -> None:
+        """Refuse (or, bridging, warn about) the steps whose ``turns`` (rad) exceed GAP_TURN, the first ``h`` s long
+        (before ``row`` of a chunk)."""
+        turns = turns[turns > GAP_TURN]
+        if not turns.size:
             return
         if self._bridge_lost:
-            lost_warning(np.array([turn]))
+            lost_warning(turns)
             return
+        turn = float(turns[0])
         where = "" if row is None else f" before row {row} of the chunk"
         raise OptinavError(
             f"a step of {h:.3g} s{where} lost samples (the typical step {typical:.3g} s) where the gyro's turn "
@@ -768,8 +772,8 @@ class StreamGaps:
             lost = lost[lost > 0]
         if lost.size:
             turns = lost_turns(g, np.broadcast_to(d, (g.shape[0],)), before)[lost]
-            k = int(np.argmax(turns > GAP_TURN)) if np.any(turns > GAP_TURN) else 0
-            self._lost(float(d[lost[k]]), float(turns[k]), typical, int(lost[k]))
+            k = int(np.argmax(turns > GAP_TURN))  # the first uncertain one, named
+            self._lost(float(d[lost[k]]), turns[k:], typical, int(lost[k]))
         self._prev = float(d[-1])
 
 
