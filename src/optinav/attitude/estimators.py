@@ -755,7 +755,9 @@ def estimate(
     allow_gaps : bool
         Restart after a time gap instead of refusing it.
     checks : bool
-        Run the unit / swap / clipping checks.
+        Run the input checks (units, swaps, clipping, …) and, with polarization and ``q0``, the check that the AoP
+        does not contradict q0 (iframe run from q0 turned 180° about up beside it); False: inputs already judged
+        (a Monte Carlo's or a tuning's repeated runs on one judged flight).
     **options
         Override :data:`DEFAULTS` of the method.
 
@@ -797,7 +799,7 @@ def estimate(
     decide = pol is not None and q0 is None and mag is None
     # from q0 its branch is taken, and the AoP must not contradict it (a q0 180° off ran 179° off, an AoP of the
     # other sign 69-108°, its reference axis 90° off 90°, all with exit 0)
-    confirm = pol is not None and q0 is not None and mag is None and not gaps.size
+    confirm = checks and pol is not None and q0 is not None and mag is None and not gaps.size
     branch_opts = opts if method == "iframe" else _options("iframe", {})
     ahead = None
     if checks and not gaps.size and (decide or confirm or method == "iframe" and mag is None):
