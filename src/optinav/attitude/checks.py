@@ -3367,15 +3367,16 @@ def check_mag_axes(
     against the gyro (:func:`check_mag_turns`), a gyro that reads far less than the field turns
     (:func:`gyro_scale_error`; ``gyro_unit`` as declared) or a field late against the gyro (:func:`check_mag_lag`,
     ``held_s`` as it takes it); ``dt`` the median step (s)."""
-    b, as_, ms, c, dev = mag_sums(acc, mag)
-    warn_or_refuse_mag_axes(*mag_axes_hint(b, as_, ms, c, dev, dt))
-    if gyr is not None:
-        # the gyro's scale and sense first: a field that turns about the gyro's axes by a clear factor is no
-        # magnetometer in other axes (those leave the turning unexplained), and a mirrored frame was blamed on one
-        rows = scale_bin_rows(dt)
-        up = field_rate_sums(gyr, acc, rows)
-        check_gyro_scale(*field_rate_sums(gyr, mag, rows), rows * dt, gyro_unit, up, held_s)
-        check_mag_turns(b, ms, c, *gyro_sums(gyr), dt)
+    tilt = mag_sums(acc, mag)
+    if gyr is None:
+        judge_mag_axes(tilt, None, None, 0.0, None, dt, gyro_unit)
+        return
+    # the gyro's scale and sense first (judge_mag_axes): a field that turns about the gyro's axes by a clear factor
+    # is no magnetometer in other axes (those leave the turning unexplained), and a mirrored frame was blamed on one
+    rows = scale_bin_rows(dt)
+    bins, sums = field_rate_sums(gyr, mag, rows)
+    up = field_rate_sums(gyr, acc, rows)
+    judge_mag_axes(tilt, bins, sums, rows * dt, gyro_sums(gyr), dt, gyro_unit, up, held_s)
 
 
 def check_gyro_scale(

@@ -434,8 +434,8 @@ def run_iframe(
     # heading's offset to the AoP's, as the field's, ran at 0.45° on BROAD's nine with synthesized AoP against
     # 0.37° online and 0.31° fused
     earth = used
-    if m.shape[0] and used.any():  # the fields the heading takes: those with the Earth's norm and dip
-        nd = norm_dip(q, m, frame)
+    if m.shape[0] and not held and opts["tau_mag_smooth"] > 0.0 and used.any():
+        nd = norm_dip(q, m, frame)  # the fields the heading takes: those with the Earth's norm and dip
         earth = used & earth_like(*nd, (np.median(nd[0][used]), np.median(nd[1][used])), opts)
     if m.shape[0] and not held and opts["tau_mag_smooth"] > 0.0 and earth.any():
         tau = opts["tau_mag_smooth"]
