@@ -786,7 +786,7 @@ def figures(n) -> list[Figure]:
             axs[k].set_ylabel(f"{a} error [deg]")
             axs[k].grid(alpha=0.3)
         fig.suptitle(title, fontsize=10)
-        axs[0].legend(fontsize=7, ncol=4, loc="lower center", bbox_to_anchor=(0.5, 1.0))  # above: no curve hidden
+        axs[0].legend(fontsize=7, ncol=2, loc="lower center", bbox_to_anchor=(0.5, 1.0))  # above: no curve hidden
         axs[-1].set_xlabel("t [s]")
 
     def draw_dyn(fig):
